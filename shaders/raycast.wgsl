@@ -1,0 +1,221 @@
+// The baseline ray caster's GPU twin: one invocation per pixel. It mirrors
+// src/render/raycast/cpu.rs step for step (see src/render/raycast/mod.rs for the model).
+
+//#include "common.wgsl"
+
+const PI: f32 = 3.14159265358979;
+const BACKGROUND_DEPTH: f32 = 1.0e10;
+const MAX_LIGHTS: u32 = 8u;
+const LUT_STRIDE: u32 = 8u;
+
+struct Light {
+    // x: 1 directional, 2 point (ambient lights are summed into `ambient`).
+    kind: vec4<f32>,
+    // Directional: unit direction towards the light; point: position.
+    vector: vec4<f32>,
+    // Irradiance (directional) or intensity (point).
+    colour: vec4<f32>,
+};
+
+struct Params {
+    cam_position: vec4<f32>,   // w: 1 perspective, 0 orthographic
+    cam_forward: vec4<f32>,
+    cam_right: vec4<f32>,
+    cam_up: vec4<f32>,
+    image: vec4<f32>,          // half extent x, half extent y, width, height
+    box_lo: vec4<f32>,
+    box_hi: vec4<f32>,
+    vol_origin: vec4<f32>,
+    vol_spacing: vec4<f32>,
+    vol_dims: vec4<f32>,
+    ambient: vec4<f32>,
+    background: vec4<f32>,
+    lut_range: vec4<f32>,      // value min, value max, gradient max (0: 1D table), unused
+    lut_size: vec4<f32>,       // entries along value, along gradient
+    march: vec4<f32>,          // step, ERT threshold, normal threshold, shading (0 unshaded, 1 gradient)
+    phong: vec4<f32>,          // specular, shininess, light count, needs gradient (0/1)
+    band: vec4<f32>,           // first row of this dispatch, rows in it
+    lights: array<Light, 8>,
+};
+
+struct Optical {
+    sigma_t: f32,
+    albedo: vec3<f32>,
+    emission: vec3<f32>,
+};
+
+@group(0) @binding(0) var<uniform> params: Params;
+@group(0) @binding(1) var volume: texture_3d<f32>;
+@group(0) @binding(2) var volume_sampler: sampler;
+@group(0) @binding(3) var<storage, read> lut: array<f32>;
+@group(0) @binding(4) var<storage, read_write> out_rgba: array<vec4<f32>>;
+@group(0) @binding(5) var<storage, read_write> out_depth: array<f32>;
+
+fn sample_at(p: vec3<f32>) -> f32 {
+    let c = (p - params.vol_origin.xyz) / params.vol_spacing.xyz;
+    return sample_volume(volume, volume_sampler, c, params.vol_dims.xyz);
+}
+
+fn gradient_at(p: vec3<f32>) -> vec3<f32> {
+    let c = (p - params.vol_origin.xyz) / params.vol_spacing.xyz;
+    return volume_gradient(volume, volume_sampler, c, params.vol_dims.xyz, params.vol_spacing.xyz);
+}
+
+// Linear coordinate along a table axis of n entries: (i0, i1, fraction), as Lut::coord.
+fn lut_coord(x: f32, lo: f32, hi: f32, n: f32) -> vec3<f32> {
+    let u = clamp((x - lo) / (hi - lo) * (n - 1.0), 0.0, n - 1.0);
+    let i0 = floor(u);
+    let i1 = min(i0 + 1.0, n - 1.0);
+    return vec3<f32>(i0, i1, u - i0);
+}
+
+fn lut_add(acc: ptr<function, array<f32, 7>>, i: f32, j: f32, w: f32) {
+    let base = (u32(i) + u32(params.lut_size.x) * u32(j)) * LUT_STRIDE;
+    for (var c = 0u; c < 7u; c = c + 1u) {
+        (*acc)[c] = (*acc)[c] + w * lut[base + c];
+    }
+}
+
+fn lookup(v: f32, g: f32) -> Optical {
+    let cv = lut_coord(v, params.lut_range.x, params.lut_range.y, params.lut_size.x);
+    var cg = vec3<f32>(0.0, 0.0, 0.0);
+    if (params.lut_range.z > 0.0) {
+        cg = lut_coord(g, 0.0, params.lut_range.z, params.lut_size.y);
+    }
+    var acc = array<f32, 7>(0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0);
+    lut_add(&acc, cv.x, cg.x, (1.0 - cv.z) * (1.0 - cg.z));
+    lut_add(&acc, cv.y, cg.x, cv.z * (1.0 - cg.z));
+    lut_add(&acc, cv.x, cg.y, (1.0 - cv.z) * cg.z);
+    lut_add(&acc, cv.y, cg.y, cv.z * cg.z);
+    return Optical(acc[0], vec3<f32>(acc[1], acc[2], acc[3]), vec3<f32>(acc[4], acc[5], acc[6]));
+}
+
+// Unit direction towards light l and the irradiance it delivers at p (as lights::incident).
+fn incident(l: u32, p: vec3<f32>, to_light: ptr<function, vec3<f32>>) -> vec3<f32> {
+    let light = params.lights[l];
+    if (light.kind.x == 1.0) {
+        *to_light = light.vector.xyz;
+        return light.colour.xyz;
+    }
+    let d = light.vector.xyz - p;
+    let r2 = max(dot(d, d), 1e-12);
+    *to_light = d / sqrt(r2);
+    return light.colour.xyz / r2;
+}
+
+fn emitted(o: Optical, alpha: f32, dt: f32) -> vec3<f32> {
+    if (o.sigma_t > 1e-6) {
+        return o.emission * (alpha / o.sigma_t);
+    }
+    return o.emission * dt;
+}
+
+fn in_scattered(o: Optical, p: vec3<f32>, grad: vec3<f32>, dir: vec3<f32>) -> vec3<f32> {
+    let count = u32(params.phong.z);
+    let ambient = params.ambient.xyz;
+    var l = vec3<f32>(0.0);
+    if (params.march.w == 0.0) {
+        var direct = vec3<f32>(0.0);
+        for (var i = 0u; i < count; i = i + 1u) {
+            direct = direct + incident(i, p, &l);
+        }
+        return o.albedo * (ambient + direct / (4.0 * PI));
+    }
+    let gm = length(grad);
+    let w = min(gm / params.march.z, 1.0);
+    var n = vec3<f32>(0.0);
+    if (gm > 0.0) {
+        n = -grad / gm;
+    }
+    if (dot(n, dir) > 0.0) {
+        n = -n;
+    }
+    let to_eye = -dir;
+    let shininess = params.phong.y;
+    var diffuse = ambient;
+    var specular = vec3<f32>(0.0);
+    for (var i = 0u; i < count; i = i + 1u) {
+        let e = incident(i, p, &l);
+        diffuse = diffuse + e * (w * max(dot(n, l), 0.0) / PI + (1.0 - w) / (4.0 * PI));
+        let hv = l + to_eye;
+        var h = vec3<f32>(0.0);
+        if (dot(hv, hv) > 0.0) {
+            h = normalize(hv);
+        }
+        let lobe = pow(max(dot(n, h), 0.0), shininess) * (shininess + 8.0) / (8.0 * PI);
+        specular = specular + e * (w * params.phong.x * lobe);
+    }
+    return o.albedo * diffuse + specular;
+}
+
+// Entry and exit distances of the ray in the volume's box; x > y when it misses.
+fn intersect_box(origin: vec3<f32>, dir: vec3<f32>) -> vec2<f32> {
+    let inv = 1.0 / dir;
+    let t0 = (params.box_lo.xyz - origin) * inv;
+    let t1 = (params.box_hi.xyz - origin) * inv;
+    let lo = min(t0, t1);
+    let hi = max(t0, t1);
+    let near = max(max(max(lo.x, lo.y), lo.z), 0.0);
+    let far = min(min(hi.x, hi.y), hi.z);
+    return vec2<f32>(near, far);
+}
+
+@compute @workgroup_size(8, 8, 1)
+fn main(@builtin(global_invocation_id) id: vec3<u32>) {
+    let width = u32(params.image.z);
+    let row = id.y + u32(params.band.x);
+    if (id.x >= width || id.y >= u32(params.band.y)) {
+        return;
+    }
+    let out_index = id.x + width * id.y;
+    let sx = ((f32(id.x) + 0.5) / params.image.z * 2.0 - 1.0) * params.image.x;
+    let sy = (1.0 - (f32(row) + 0.5) / params.image.w * 2.0) * params.image.y;
+    var origin = params.cam_position.xyz;
+    var dir = params.cam_forward.xyz;
+    if (params.cam_position.w == 1.0) {
+        dir = normalize(params.cam_forward.xyz + sx * params.cam_right.xyz + sy * params.cam_up.xyz);
+    } else {
+        origin = origin + sx * params.cam_right.xyz + sy * params.cam_up.xyz;
+    }
+    let background = params.background.xyz;
+    let span = intersect_box(origin, dir);
+    if (!(span.y > span.x)) {
+        out_rgba[out_index] = vec4<f32>(background, 0.0);
+        out_depth[out_index] = BACKGROUND_DEPTH;
+        return;
+    }
+    let step = params.march.x;
+    let ert = params.march.y;
+    let needs_gradient = params.phong.w == 1.0;
+    let steps = u32(ceil((span.y - span.x) / step));
+    var radiance = vec3<f32>(0.0);
+    var transmittance = 1.0;
+    var depth = BACKGROUND_DEPTH;
+    for (var k = 0u; k < steps; k = k + 1u) {
+        let ta = span.x + f32(k) * step;
+        let dt = min(span.y - ta, step);
+        let p = origin + (ta + 0.5 * dt) * dir;
+        let value = sample_at(p);
+        var grad = vec3<f32>(0.0);
+        if (needs_gradient) {
+            grad = gradient_at(p);
+        }
+        let o = lookup(value, length(grad));
+        if (o.sigma_t <= 0.0 && all(o.emission == vec3<f32>(0.0))) {
+            continue;
+        }
+        let alpha = 1.0 - exp(-o.sigma_t * dt);
+        let light_in = in_scattered(o, p, grad, dir);
+        radiance = radiance + transmittance * (alpha * light_in + emitted(o, alpha, dt));
+        let next = transmittance * (1.0 - alpha);
+        if (transmittance > 0.5 && next <= 0.5) {
+            depth = ta + log(2.0 * transmittance) / o.sigma_t;
+        }
+        transmittance = next;
+        if (transmittance < ert) {
+            break;
+        }
+    }
+    out_rgba[out_index] = vec4<f32>(radiance + transmittance * background, 1.0 - transmittance);
+    out_depth[out_index] = depth;
+}

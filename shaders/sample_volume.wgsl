@@ -1,0 +1,29 @@
+// Test kernel for the volume texture: value and gradient at a list of index coordinates, to be
+// compared with Volume::sample_index and Volume::gradient on the CPU.
+
+//#include "common.wgsl"
+
+struct Params {
+    dims: vec4<f32>,     // xyz: voxels per axis
+    spacing: vec4<f32>,  // xyz: world units per voxel
+    count: vec4<u32>,    // x: number of points
+};
+
+@group(0) @binding(0) var<uniform> params: Params;
+@group(0) @binding(1) var volume: texture_3d<f32>;
+@group(0) @binding(2) var volume_sampler: sampler;
+@group(0) @binding(3) var<storage, read> points: array<vec4<f32>>;
+// xyz: gradient, w: value.
+@group(0) @binding(4) var<storage, read_write> results: array<vec4<f32>>;
+
+@compute @workgroup_size(64)
+fn main(@builtin(global_invocation_id) id: vec3<u32>) {
+    let i = id.x;
+    if (i >= params.count.x) {
+        return;
+    }
+    let c = points[i].xyz;
+    let value = sample_volume(volume, volume_sampler, c, params.dims.xyz);
+    let gradient = volume_gradient(volume, volume_sampler, c, params.dims.xyz, params.spacing.xyz);
+    results[i] = vec4<f32>(gradient, value);
+}

@@ -1,0 +1,240 @@
+//! Cameras, with Blender's conventions so that images line up with Cycles pixel for pixel.
+//!
+//! World space is Blender's: Z up, right-handed. A camera looks from `position` at `target`;
+//! `up` fixes the roll (Blender's track-to with -Z forward and Y up). Pixel (i, j), row 0 at the
+//! top, is sampled through its centre. Sensor fit is Blender's AUTO: the field of view given as
+//! lens and sensor spans the larger image dimension.
+
+use crate::error::{Error, Result};
+use glam::Vec3;
+
+/// Perspective or orthographic projection.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Projection {
+    /// Vertical field of view in radians.
+    Perspective { fov_y: f32 },
+    /// Extent of the view along the larger image dimension, in world units (Blender's Orthographic Scale).
+    Orthographic { scale: f32 },
+}
+
+/// A camera and its image size.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Camera {
+    pub position: Vec3,
+    /// Unit vectors of the camera frame: `forward` into the scene, `right` and `up` on the image.
+    pub forward: Vec3,
+    pub right: Vec3,
+    pub up: Vec3,
+    pub projection: Projection,
+    pub width: u32,
+    pub height: u32,
+}
+
+/// A ray with a unit direction.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Ray {
+    pub origin: Vec3,
+    pub dir: Vec3,
+}
+
+/// Largest image side accepted (keeps buffers within reason: 16384^2 RGBA f32 is 4 GiB).
+pub const MAX_IMAGE_SIDE: u32 = 16384;
+
+impl Camera {
+    /// A camera at `position` looking at `target`, with `up` giving the roll.
+    pub fn look_at(
+        position: Vec3,
+        target: Vec3,
+        up: Vec3,
+        projection: Projection,
+        width: u32,
+        height: u32,
+    ) -> Result<Self> {
+        if !position.is_finite() || !target.is_finite() || !up.is_finite() {
+            return Err(Error::param("camera", "position, target and up must be finite"));
+        }
+        let forward = (target - position).normalize_or_zero();
+        if forward == Vec3::ZERO {
+            return Err(Error::param("camera.target", "must differ from camera.position"));
+        }
+        let right = forward.cross(up).normalize_or_zero();
+        if right == Vec3::ZERO {
+            return Err(Error::param(
+                "camera.up",
+                "must not be parallel to the viewing direction",
+            ));
+        }
+        for (key, side) in [("camera.width", width), ("camera.height", height)] {
+            if side == 0 || side > MAX_IMAGE_SIDE {
+                return Err(Error::param(
+                    key,
+                    format!("must be in 1..={MAX_IMAGE_SIDE}, got {side}"),
+                ));
+            }
+        }
+        match projection {
+            Projection::Perspective { fov_y } if !(fov_y > 0.0 && fov_y < std::f32::consts::PI) => {
+                return Err(Error::param(
+                    "camera.fov_deg",
+                    format!("must be in (0, 180) degrees, got {}", fov_y.to_degrees()),
+                ))
+            }
+            Projection::Orthographic { scale } if !(scale > 0.0 && scale.is_finite()) => {
+                return Err(Error::param(
+                    "camera.ortho_scale",
+                    format!("must be positive, got {scale}"),
+                ))
+            }
+            _ => {}
+        }
+        Ok(Self {
+            position,
+            forward,
+            right,
+            up: right.cross(forward),
+            projection,
+            width,
+            height,
+        })
+    }
+
+    /// The vertical field of view for Blender's lens and sensor width with sensor fit AUTO
+    /// (the sensor spans the larger image dimension).
+    pub fn fov_y_from_lens(lens_mm: f32, sensor_mm: f32, width: u32, height: u32) -> Result<f32> {
+        if !(lens_mm > 0.0 && lens_mm.is_finite()) {
+            return Err(Error::param("camera.lens_mm", format!("must be positive, got {lens_mm}")));
+        }
+        if !(sensor_mm > 0.0 && sensor_mm.is_finite()) {
+            return Err(Error::param(
+                "camera.sensor_mm",
+                format!("must be positive, got {sensor_mm}"),
+            ));
+        }
+        let tan_large = 0.5 * sensor_mm / lens_mm;
+        let tan_y = if width >= height {
+            tan_large * height as f32 / width as f32
+        } else {
+            tan_large
+        };
+        Ok(2.0 * tan_y.atan())
+    }
+
+    /// Half extents of the image plane: tangents of the half angles (perspective) or half sizes
+    /// in world units (orthographic), as (x, y).
+    pub fn half_extent(&self) -> (f32, f32) {
+        let aspect = self.width as f32 / self.height as f32;
+        match self.projection {
+            Projection::Perspective { fov_y } => {
+                let ty = (0.5 * fov_y).tan();
+                (ty * aspect, ty)
+            }
+            Projection::Orthographic { scale } => {
+                let half = 0.5 * scale;
+                if aspect >= 1.0 {
+                    (half, half / aspect)
+                } else {
+                    (half * aspect, half)
+                }
+            }
+        }
+    }
+
+    /// The ray through the centre of pixel (i, j), row 0 at the top.
+    pub fn ray(&self, i: u32, j: u32) -> Ray {
+        let (hx, hy) = self.half_extent();
+        let sx = ((i as f32 + 0.5) / self.width as f32 * 2.0 - 1.0) * hx;
+        let sy = (1.0 - (j as f32 + 0.5) / self.height as f32 * 2.0) * hy;
+        match self.projection {
+            Projection::Perspective { .. } => Ray {
+                origin: self.position,
+                dir: (self.forward + sx * self.right + sy * self.up).normalize(),
+            },
+            Projection::Orthographic { .. } => Ray {
+                origin: self.position + sx * self.right + sy * self.up,
+                dir: self.forward,
+            },
+        }
+    }
+
+    /// Whether rays share one origin (perspective) rather than one direction.
+    pub fn is_perspective(&self) -> bool {
+        matches!(self.projection, Projection::Perspective { .. })
+    }
+}
+
+/// Distances (t_near, t_far) where a ray enters and leaves an axis-aligned box, if it hits it
+/// in front of the origin; t_near is clamped to 0 when the origin is inside.
+pub fn intersect_box(ray: &Ray, lo: Vec3, hi: Vec3) -> Option<(f32, f32)> {
+    let inv = ray.dir.recip();
+    let t0 = (lo - ray.origin) * inv;
+    let t1 = (hi - ray.origin) * inv;
+    // min/max with NaN (0 * inf for a ray in a face plane) fall back to the other operand.
+    let near = t0.min(t1).max_element().max(0.0);
+    let far = t0.max(t1).min_element();
+    (far > near).then_some((near, far))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn blender_lens_to_fov() {
+        // The benchmark camera: 65 mm lens, 36 mm sensor, square image.
+        let fov = Camera::fov_y_from_lens(65.0, 36.0, 256, 256).unwrap();
+        assert!((fov - 2.0 * (18.0f32 / 65.0).atan()).abs() < 1e-6);
+        // Landscape: the sensor spans the width, so the vertical angle shrinks by the aspect.
+        let fov = Camera::fov_y_from_lens(50.0, 36.0, 200, 100).unwrap();
+        assert!(((0.5 * fov).tan() - 0.18).abs() < 1e-6);
+    }
+
+    #[test]
+    fn centre_pixel_looks_at_target_and_corners_span_the_fov() {
+        let fov = 60f32.to_radians();
+        let cam = Camera::look_at(
+            Vec3::new(0.0, -5.0, 0.0),
+            Vec3::ZERO,
+            Vec3::Z,
+            Projection::Perspective { fov_y: fov },
+            3,
+            3,
+        )
+        .unwrap();
+        assert!((cam.ray(1, 1).dir - Vec3::Y).length() < 1e-6);
+        // Row 0 is the top: its rays point up (+Z); column 0 is the left (-X seen from -Y).
+        let top_left = cam.ray(0, 0).dir;
+        assert!(top_left.z > 0.0 && top_left.x < 0.0);
+        let edge = (0.5 * fov).tan() * 2.0 / 3.0;
+        assert!((top_left.z / top_left.y - edge).abs() < 1e-5);
+    }
+
+    #[test]
+    fn box_intersection() {
+        let ray = Ray {
+            origin: Vec3::new(-3.0, 0.5, 0.5),
+            dir: Vec3::X,
+        };
+        let (a, b) = intersect_box(&ray, Vec3::ZERO, Vec3::ONE).unwrap();
+        assert!((a - 3.0).abs() < 1e-6 && (b - 4.0).abs() < 1e-6);
+        let inside = Ray {
+            origin: Vec3::splat(0.5),
+            dir: Vec3::Z,
+        };
+        assert_eq!(intersect_box(&inside, Vec3::ZERO, Vec3::ONE), Some((0.0, 0.5)));
+        let miss = Ray {
+            origin: Vec3::new(-3.0, 2.0, 0.5),
+            dir: Vec3::X,
+        };
+        assert!(intersect_box(&miss, Vec3::ZERO, Vec3::ONE).is_none());
+    }
+
+    #[test]
+    fn rejects_degenerate_cameras() {
+        let persp = Projection::Perspective { fov_y: 1.0 };
+        assert!(Camera::look_at(Vec3::ZERO, Vec3::ZERO, Vec3::Z, persp, 8, 8).is_err());
+        let err = Camera::look_at(Vec3::ZERO, Vec3::Z, Vec3::Z, persp, 8, 8).unwrap_err();
+        assert!(err.to_string().contains("camera.up"));
+        let err = Camera::look_at(Vec3::ZERO, Vec3::X, Vec3::Z, persp, 0, 8).unwrap_err();
+        assert!(err.to_string().contains("camera.width"));
+    }
+}

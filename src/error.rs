@@ -1,0 +1,53 @@
+//! One error type for the whole library: every message names the file, field or parameter at fault.
+
+use std::path::PathBuf;
+
+/// Everything that can go wrong in Occlux. Messages are written for the user: they name the
+/// file, the field and the expected form.
+#[derive(Debug, thiserror::Error)]
+pub enum Error {
+    /// Reading or writing a file failed at the operating-system level.
+    #[error("{path}: {source}")]
+    Io {
+        path: PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+    /// A file exists but its content is not what its format requires.
+    #[error("{path}: {message}")]
+    Format { path: PathBuf, message: String },
+    /// A parameter, scene key or argument is out of range or malformed. `key` names it.
+    #[error("invalid `{key}`: {message}")]
+    Param { key: String, message: String },
+    /// Volume data that cannot be used (NaN, zero dims, too large, ...).
+    #[error("invalid volume: {0}")]
+    Volume(String),
+    /// The GPU could not be opened or a GPU operation failed.
+    #[error("GPU: {0}")]
+    Gpu(String),
+}
+
+pub type Result<T, E = Error> = std::result::Result<T, E>;
+
+impl Error {
+    pub fn io(path: impl Into<PathBuf>, source: std::io::Error) -> Self {
+        Error::Io {
+            path: path.into(),
+            source,
+        }
+    }
+
+    pub fn format(path: impl Into<PathBuf>, message: impl Into<String>) -> Self {
+        Error::Format {
+            path: path.into(),
+            message: message.into(),
+        }
+    }
+
+    pub fn param(key: impl Into<String>, message: impl Into<String>) -> Self {
+        Error::Param {
+            key: key.into(),
+            message: message.into(),
+        }
+    }
+}

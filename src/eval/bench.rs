@@ -1,0 +1,157 @@
+//! `occlux bench`: times the baseline ray caster (unshaded and gradient DVR) on the CPU and the
+//! GPU at several image sizes on one volume: the median of repeats after a warm-up render,
+//! printed as a table and written as JSON.
+
+use crate::error::{Error, Result};
+use crate::export::atomic::write_atomic;
+use crate::gpu::{Compute, DeviceChoice};
+use crate::progress::NoProgress;
+use crate::render::raycast::{self, GradientShading, RaycastInput, RaycastParams, Shading};
+use crate::scene::{Scene, SourceKind};
+use serde::Serialize;
+use std::io::Write;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+/// The benchmark scene: engine.nrrd placed, classified and lit as in shared/bench/engine-cycles.
+const BENCH_SCENE: &str = include_str!("../../examples/engine.toml");
+
+#[derive(clap::Args, Debug)]
+pub struct BenchArgs {
+    /// Volume to render (classified with the engine scene's transfer function).
+    #[arg(long, default_value = "../shared/data/scivis/engine.nrrd")]
+    pub volume: PathBuf,
+    /// Square image sides to time.
+    #[arg(long, value_delimiter = ',', default_value = "256,512")]
+    pub sizes: Vec<u32>,
+    /// Timed repeats per case (after one warm-up render).
+    #[arg(long, default_value_t = 5)]
+    pub repeats: usize,
+    /// Devices to time: cpu, gpu, or auto (both when a GPU adapter opens).
+    #[arg(long, value_enum, default_value = "auto")]
+    pub device: DeviceChoice,
+    /// Where to write the JSON results.
+    #[arg(short, long, default_value = "occlux-bench.json")]
+    pub out: PathBuf,
+}
+
+/// One timed case.
+#[derive(Serialize, Debug, Clone)]
+pub struct BenchRow {
+    pub method: &'static str,
+    pub device: String,
+    pub size: u32,
+    pub median_ms: f64,
+    pub min_ms: f64,
+    pub max_ms: f64,
+    pub repeats: usize,
+}
+
+#[derive(Serialize)]
+struct BenchReport<'a> {
+    volume: String,
+    dims: [usize; 3],
+    cpu_threads: usize,
+    rows: &'a [BenchRow],
+}
+
+/// Runs the benchmark, prints the table unless `quiet`, and writes the JSON.
+pub fn run(args: &BenchArgs, quiet: bool) -> Result<()> {
+    if args.repeats == 0 || args.sizes.is_empty() {
+        return Err(Error::param("--repeats/--sizes", "need at least one repeat and one size"));
+    }
+    let mut scene = Scene::parse(BENCH_SCENE, Path::new("."))?;
+    scene.volume.kind = SourceKind::File(args.volume.clone());
+    let volume = scene.load_volume()?;
+    let lut = scene.classification.bake(&volume);
+    let mut devices = vec![];
+    if args.device != DeviceChoice::Gpu {
+        devices.push(Compute::Cpu);
+    }
+    if args.device != DeviceChoice::Cpu {
+        match Compute::resolve(DeviceChoice::Gpu) {
+            Ok((gpu, _)) => devices.push(gpu),
+            Err(e) if args.device == DeviceChoice::Auto => {
+                if !quiet {
+                    eprintln!("no GPU timings: {e}");
+                }
+            }
+            Err(e) => return Err(e),
+        }
+    }
+    let methods = [
+        ("unshaded", Shading::Unshaded),
+        ("gradient", Shading::Gradient(GradientShading::default())),
+    ];
+    let mut rows = vec![];
+    for compute in &devices {
+        for &size in &args.sizes {
+            let mut camera = scene.camera;
+            camera.width = size;
+            camera.height = size;
+            for (name, shading) in methods {
+                let params = RaycastParams {
+                    shading,
+                    ..RaycastParams::default()
+                };
+                let input = RaycastInput {
+                    volume: &volume,
+                    lut: &lut,
+                    camera: &camera,
+                    lighting: &scene.lighting,
+                    params: &params,
+                };
+                // Warm-up: shader compilation and first-touch allocation are not timed.
+                raycast::render(compute, &input, &NoProgress)?;
+                let mut times: Vec<f64> = (0..args.repeats)
+                    .map(|_| {
+                        let t = Instant::now();
+                        raycast::render(compute, &input, &NoProgress)
+                            .map(|_| t.elapsed().as_secs_f64() * 1e3)
+                    })
+                    .collect::<Result<_>>()?;
+                times.sort_by(f64::total_cmp);
+                let row = BenchRow {
+                    method: name,
+                    device: compute.describe(),
+                    size,
+                    median_ms: median(&times),
+                    min_ms: times[0],
+                    max_ms: times[times.len() - 1],
+                    repeats: args.repeats,
+                };
+                if !quiet {
+                    println!(
+                        "{:<9} {:>5}^2  {:>10.1} ms (min {:.1}, max {:.1})  {}",
+                        row.method, row.size, row.median_ms, row.min_ms, row.max_ms, row.device
+                    );
+                }
+                rows.push(row);
+            }
+        }
+    }
+    let report = BenchReport {
+        volume: args.volume.display().to_string(),
+        dims: volume.dims(),
+        cpu_threads: rayon::current_num_threads(),
+        rows: &rows,
+    };
+    let json = serde_json::to_string_pretty(&report).map_err(|e| Error::param("bench", e.to_string()))?;
+    write_atomic(&args.out, |w| {
+        w.write_all(json.as_bytes()).map_err(|e| Error::io(&args.out, e))
+    })?;
+    if !quiet {
+        println!("wrote {}", args.out.display());
+    }
+    Ok(())
+}
+
+/// Median of sorted values.
+fn median(sorted: &[f64]) -> f64 {
+    let n = sorted.len();
+    if n % 2 == 1 {
+        sorted[n / 2]
+    } else {
+        0.5 * (sorted[n / 2 - 1] + sorted[n / 2])
+    }
+}

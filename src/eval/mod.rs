@@ -1,0 +1,2 @@
+//! Evaluation: benchmarks and error metrics.
+pub mod bench;

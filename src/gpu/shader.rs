@@ -1,0 +1,233 @@
+//! WGSL sources embedded at build time, `//#include "name.wgsl"` expansion, and cached compute
+//! pipelines (creating one JIT-compiles the shader, 60-800 ms on lavapipe, so each is built once
+//! per context).
+
+use std::collections::{HashMap, HashSet};
+use std::sync::Mutex;
+
+use crate::error::{Error, Result};
+
+use super::context::GpuContext;
+
+/// Every shader in shaders/, by file name.
+const SOURCES: &[(&str, &str)] = &[
+    ("common.wgsl", include_str!("../../shaders/common.wgsl")),
+    (
+        "sample_volume.wgsl",
+        include_str!("../../shaders/sample_volume.wgsl"),
+    ),
+    ("raycast.wgsl", include_str!("../../shaders/raycast.wgsl")),
+];
+
+const INCLUDE: &str = "//#include";
+
+/// The text of shader `name` with its includes expanded. Each file is included at most once
+/// (later includes of it, and include cycles, expand to nothing).
+pub fn source(name: &str) -> Result<String> {
+    let mut out = String::new();
+    expand(name, &raw_source, &mut HashSet::new(), &mut out)?;
+    Ok(out)
+}
+
+fn raw_source(name: &str) -> Result<&'static str> {
+    SOURCES
+        .iter()
+        .find(|(n, _)| *n == name)
+        .map(|(_, text)| *text)
+        .ok_or_else(|| {
+            let known: Vec<&str> = SOURCES.iter().map(|(n, _)| *n).collect();
+            Error::Gpu(format!(
+                "no shader named \"{name}\" (known: {})",
+                known.join(", ")
+            ))
+        })
+}
+
+/// Appends `name`, with its includes expanded, to `out`; `lookup` gives a file's raw text.
+fn expand<'a>(
+    name: &str,
+    lookup: &dyn Fn(&str) -> Result<&'a str>,
+    included: &mut HashSet<String>,
+    out: &mut String,
+) -> Result<()> {
+    if !included.insert(name.to_owned()) {
+        return Ok(());
+    }
+    for (number, line) in lookup(name)?.lines().enumerate() {
+        match line.trim().strip_prefix(INCLUDE) {
+            Some(rest) => {
+                let target = parse_include(rest).ok_or_else(|| {
+                    Error::Gpu(format!(
+                        "{name}:{}: expected {INCLUDE} \"file.wgsl\", got `{}`",
+                        number + 1,
+                        line.trim()
+                    ))
+                })?;
+                expand(target, lookup, included, out)
+                    .map_err(|e| Error::Gpu(format!("{name}:{}: {e}", number + 1)))?;
+            }
+            None => {
+                out.push_str(line);
+                out.push('\n');
+            }
+        }
+    }
+    Ok(())
+}
+
+/// The quoted file name after `//#include`.
+fn parse_include(rest: &str) -> Option<&str> {
+    rest.trim()
+        .strip_prefix('"')?
+        .strip_suffix('"')
+        .filter(|name| !name.is_empty())
+}
+
+/// Compute pipelines of one context, keyed by (shader, entry point).
+#[derive(Debug, Default)]
+pub(super) struct PipelineCache(Mutex<HashMap<(String, String), wgpu::ComputePipeline>>);
+
+/// The compute pipeline for `entry_point` of shader `name`, built on first use with the bind
+/// group layouts that wgpu derives from the shader (`layout: None`), then cached in `ctx`.
+/// A shader that does not compile is an `Error::Gpu` with naga's message.
+pub fn compute_pipeline(
+    ctx: &GpuContext,
+    name: &str,
+    entry_point: &str,
+) -> Result<wgpu::ComputePipeline> {
+    let key = (name.to_owned(), entry_point.to_owned());
+    if let Some(pipeline) = lock(&ctx.pipelines)?.get(&key) {
+        return Ok(pipeline.clone());
+    }
+    // Built outside the lock: compiling is slow and other pipelines need not wait for it.
+    let pipeline = build_pipeline(ctx, name, entry_point)?;
+    lock(&ctx.pipelines)?.insert(key, pipeline.clone());
+    Ok(pipeline)
+}
+
+fn lock(
+    cache: &PipelineCache,
+) -> Result<std::sync::MutexGuard<'_, HashMap<(String, String), wgpu::ComputePipeline>>> {
+    cache
+        .0
+        .lock()
+        .map_err(|_| Error::Gpu("pipeline cache poisoned by an earlier panic".into()))
+}
+
+fn build_pipeline(
+    ctx: &GpuContext,
+    name: &str,
+    entry_point: &str,
+) -> Result<wgpu::ComputePipeline> {
+    let text = source(name)?;
+    ctx.checked(&format!("shader {name}, entry point {entry_point}"), || {
+        let module = ctx
+            .device
+            .create_shader_module(wgpu::ShaderModuleDescriptor {
+                label: Some(name),
+                source: wgpu::ShaderSource::Wgsl(text.into()),
+            });
+        ctx.device
+            .create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                label: Some(name),
+                layout: None,
+                module: &module,
+                entry_point: Some(entry_point),
+                compilation_options: Default::default(),
+                cache: None,
+            })
+    })
+}
+
+/// A bind group for group 0 of `pipeline`, binding `resources[i]` at `@binding(i)`.
+pub fn bind_group(
+    ctx: &GpuContext,
+    pipeline: &wgpu::ComputePipeline,
+    resources: &[wgpu::BindingResource<'_>],
+) -> Result<wgpu::BindGroup> {
+    let entries: Vec<wgpu::BindGroupEntry<'_>> = resources
+        .iter()
+        .enumerate()
+        .map(|(binding, resource)| wgpu::BindGroupEntry {
+            binding: binding as u32,
+            resource: resource.clone(),
+        })
+        .collect();
+    ctx.checked("bind group", || {
+        ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: None,
+            layout: &pipeline.get_bind_group_layout(0),
+            entries: &entries,
+        })
+    })
+}
+
+/// Records and submits one dispatch of `workgroups` (does not wait for it).
+pub fn dispatch(
+    ctx: &GpuContext,
+    pipeline: &wgpu::ComputePipeline,
+    bind_group: &wgpu::BindGroup,
+    workgroups: [u32; 3],
+) -> Result<()> {
+    let max = ctx.limits.max_compute_workgroups_per_dimension;
+    if workgroups.iter().any(|&n| n > max) {
+        return Err(Error::Gpu(format!(
+            "dispatch of {workgroups:?} workgroups is over the adapter's {max} per dimension"
+        )));
+    }
+    ctx.checked("dispatch", || {
+        let mut encoder = ctx.device.create_command_encoder(&Default::default());
+        {
+            let mut pass = encoder.begin_compute_pass(&Default::default());
+            pass.set_pipeline(pipeline);
+            pass.set_bind_group(0, bind_group, &[]);
+            pass.dispatch_workgroups(workgroups[0], workgroups[1], workgroups[2]);
+        }
+        ctx.queue.submit([encoder.finish()]);
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn includes_expand_once_in_place() {
+        let text = source("sample_volume.wgsl").unwrap();
+        assert!(
+            !text.lines().any(|l| l.trim().starts_with(INCLUDE)),
+            "{text}"
+        );
+        assert_eq!(text.matches("fn sample_volume(").count(), 1);
+        // The include stands where its directive stood: before the kernel that uses it.
+        assert!(text.find("fn sample_volume(").unwrap() < text.find("fn main(").unwrap());
+    }
+
+    #[test]
+    fn double_and_cyclic_includes_expand_once() {
+        let files = [
+            ("a", "//#include \"b\"\n  //#include \"c\"\nA"),
+            ("b", "//#include \"c\"\nB"),
+            ("c", "//#include \"a\"\nC"),
+        ];
+        let lookup = |name: &str| -> Result<&'static str> {
+            files
+                .iter()
+                .find(|(n, _)| *n == name)
+                .map(|(_, t)| *t)
+                .ok_or_else(|| Error::Gpu(name.into()))
+        };
+        let mut out = String::new();
+        expand("a", &lookup, &mut HashSet::new(), &mut out).unwrap();
+        assert_eq!(out, "C\nB\nA\n");
+    }
+
+    #[test]
+    fn unknown_and_malformed_includes_are_errors() {
+        let err = source("nope.wgsl").unwrap_err().to_string();
+        assert!(err.contains("no shader named \"nope.wgsl\"") && err.contains("common.wgsl"));
+        assert_eq!(parse_include(" \"a.wgsl\" "), Some("a.wgsl"));
+        assert_eq!(parse_include(" a.wgsl"), None);
+        assert_eq!(parse_include(" \"\""), None);
+    }
+}

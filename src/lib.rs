@@ -1,0 +1,19 @@
+//! Occlux: illumination for scientific volumes (ambient occlusion, directional occlusion,
+//! sweeps), computed on the GPU through wgpu with a CPU twin that gives the same answers.
+//!
+//! Data flows one way: [`volume`] (load) -> [`classify`] -> [`render`] -> [`export`].
+
+pub mod camera;
+pub mod classify;
+pub mod error;
+pub mod eval;
+pub mod export;
+pub mod gpu;
+pub mod lights;
+pub mod pipeline;
+pub mod progress;
+pub mod render;
+pub mod scene;
+pub mod volume;
+
+pub use error::{Error, Result};

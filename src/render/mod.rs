@@ -1,0 +1,31 @@
+//! Renderers. Each method has a CPU twin and a GPU twin that give the same image.
+
+pub mod raycast;
+
+/// Depth written where a ray never reaches 50 % opacity (the value Blender writes for background).
+pub const BACKGROUND_DEPTH: f32 = 1.0e10;
+
+/// A rendered image: linear RGBA radiance (alpha = 1 - transmittance) and depth, row 0 at the
+/// top, x fastest.
+#[derive(Clone, Debug, PartialEq)]
+pub struct RenderImage {
+    pub width: u32,
+    pub height: u32,
+    /// Linear radiance with the background composited in; alpha is the volume's opacity.
+    pub rgba: Vec<[f32; 4]>,
+    /// Distance along the ray from the eye to where accumulated opacity crosses 0.5, or
+    /// [`BACKGROUND_DEPTH`].
+    pub depth: Vec<f32>,
+}
+
+impl RenderImage {
+    pub fn new(width: u32, height: u32) -> Self {
+        let n = width as usize * height as usize;
+        Self {
+            width,
+            height,
+            rgba: vec![[0.0; 4]; n],
+            depth: vec![BACKGROUND_DEPTH; n],
+        }
+    }
+}

@@ -1,0 +1,130 @@
+//! CPU twin of the ray caster: rayon over image rows, one ray per pixel.
+
+use super::{RaycastInput, RaycastSetup, Shading};
+use crate::camera::{intersect_box, Ray};
+use crate::classify::Optical;
+use crate::error::Result;
+use crate::lights::{incident, Light};
+use crate::progress::Progress;
+use crate::render::{RenderImage, BACKGROUND_DEPTH};
+use glam::Vec3;
+use rayon::prelude::*;
+use std::f32::consts::PI;
+use std::sync::atomic::{AtomicU64, Ordering};
+
+/// Renders the image on the CPU.
+pub fn render(input: &RaycastInput, progress: &dyn Progress) -> Result<RenderImage> {
+    let setup = input.setup()?;
+    let cam = input.camera;
+    let mut img = RenderImage::new(cam.width, cam.height);
+    let width = cam.width as usize;
+    let rows_done = AtomicU64::new(0);
+    img.rgba
+        .par_chunks_mut(width)
+        .zip(img.depth.par_chunks_mut(width))
+        .enumerate()
+        .for_each(|(j, (rgba_row, depth_row))| {
+            for (i, (rgba, depth)) in rgba_row.iter_mut().zip(depth_row).enumerate() {
+                (*rgba, *depth) = march(input, &setup, &cam.ray(i as u32, j as u32));
+            }
+            let done = rows_done.fetch_add(1, Ordering::Relaxed) + 1;
+            progress.update(done, cam.height as u64);
+        });
+    Ok(img)
+}
+
+/// Marches one ray front to back; returns (RGBA, depth).
+pub fn march(input: &RaycastInput, setup: &RaycastSetup, ray: &Ray) -> ([f32; 4], f32) {
+    let background = input.lighting.background;
+    let (lo, hi) = input.volume.bounds();
+    let Some((t_near, t_far)) = intersect_box(ray, lo, hi) else {
+        return ([background.x, background.y, background.z, 0.0], BACKGROUND_DEPTH);
+    };
+    let volume = input.volume;
+    let lut = input.lut;
+    let needs_gradient = lut.gradient_max().is_some() || input.params.shading != Shading::Unshaded;
+    let ambient = input.lighting.ambient();
+    let ert = input.params.ert_threshold;
+    let step = setup.step;
+    let steps = ((t_far - t_near) / step).ceil() as u32;
+
+    let mut radiance = Vec3::ZERO;
+    let mut transmittance = 1.0f32;
+    let mut depth = BACKGROUND_DEPTH;
+    for k in 0..steps {
+        let ta = t_near + k as f32 * step;
+        let dt = (t_far - ta).min(step);
+        let p = ray.origin + (ta + 0.5 * dt) * ray.dir;
+        let value = volume.sample(p);
+        let grad = if needs_gradient {
+            volume.gradient(p)
+        } else {
+            Vec3::ZERO
+        };
+        let optical = lut.lookup(value, grad.length());
+        if optical.sigma_t <= 0.0 && optical.emission == Vec3::ZERO {
+            continue;
+        }
+        let alpha = 1.0 - (-optical.sigma_t * dt).exp();
+        let light_in = in_scattered(input, setup, &optical, p, grad, ray.dir, ambient);
+        radiance += transmittance * (alpha * light_in + emitted(&optical, alpha, dt));
+        let next = transmittance * (1.0 - alpha);
+        if transmittance > 0.5 && next <= 0.5 {
+            depth = ta + (2.0 * transmittance).ln() / optical.sigma_t;
+        }
+        transmittance = next;
+        if transmittance < ert {
+            break;
+        }
+    }
+    let c = radiance + transmittance * background;
+    ([c.x, c.y, c.z, 1.0 - transmittance], depth)
+}
+
+/// Emission integrated over a step of opacity `alpha` and length `dt`.
+#[inline]
+fn emitted(optical: &Optical, alpha: f32, dt: f32) -> Vec3 {
+    if optical.sigma_t > 1e-6 {
+        optical.emission * (alpha / optical.sigma_t)
+    } else {
+        optical.emission * dt
+    }
+}
+
+/// Radiance scattered towards the eye at `p`, per unit opacity (see the module docs).
+#[inline]
+fn in_scattered(
+    input: &RaycastInput,
+    setup: &RaycastSetup,
+    optical: &Optical,
+    p: Vec3,
+    grad: Vec3,
+    dir: Vec3,
+    ambient: Vec3,
+) -> Vec3 {
+    let lights = input.lighting.lights.iter().filter_map(|l: &Light| incident(l, p));
+    match input.params.shading {
+        Shading::Unshaded => {
+            let direct: Vec3 = lights.map(|(_, e)| e).sum();
+            optical.albedo * (ambient + direct / (4.0 * PI))
+        }
+        Shading::Gradient(g) => {
+            let gm = grad.length();
+            let w = (gm / setup.normal_threshold).min(1.0);
+            let mut n = if gm > 0.0 { -grad / gm } else { Vec3::ZERO };
+            if n.dot(dir) > 0.0 {
+                n = -n;
+            }
+            let to_eye = -dir;
+            let mut diffuse = ambient;
+            let mut specular = Vec3::ZERO;
+            for (l, e) in lights {
+                diffuse += e * (w * n.dot(l).max(0.0) / PI + (1.0 - w) / (4.0 * PI));
+                let h = (l + to_eye).normalize_or_zero();
+                let lobe = n.dot(h).max(0.0).powf(g.shininess) * (g.shininess + 8.0) / (8.0 * PI);
+                specular += e * (w * g.specular * lobe);
+            }
+            optical.albedo * diffuse + specular
+        }
+    }
+}

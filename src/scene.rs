@@ -1,0 +1,548 @@
+//! The scene file (TOML): volume source, classification, camera, lights, background and the
+//! method with its parameters, as one struct tree. Unknown keys and out-of-range values are
+//! errors that name the key (and the file).
+//!
+//! ```toml
+//! [volume]
+//! path = "../shared/data/scivis/engine.nrrd"   # relative to the scene file; or phantom = "ct"
+//! fit = 2.0                                    # scale so the largest extent is 2 world units
+//! centre = [0, 0, 0]                           # move the bounding box's centre here
+//!
+//! [classification]
+//! units = "raw"                                # control points in the volume's own values
+//! points = [{ value = 60, sigma_t = 0 }, { value = 120, sigma_t = 20, albedo = [0.8, 0.8, 0.8] }]
+//!
+//! [camera]
+//! position = [3.2, -3.2, 2.6]
+//! target = [0, 0, 0]
+//! lens_mm = 65                                 # or fov_deg (vertical); or projection = "orthographic"
+//! width = 256
+//! height = 256
+//!
+//! [[lights]]
+//! type = "ambient"
+//! radiance = 0.3
+//!
+//! [[lights]]
+//! type = "directional"
+//! direction = [-0.3, -1, 1.2]                  # towards the light (where Blender's sun sits)
+//! irradiance = 3
+//!
+//! [render]
+//! method = "gradient"                          # or "unshaded"
+//! ```
+
+use crate::camera::{Camera, Projection};
+use crate::classify::{
+    presets, Classification, ControlPoint, TransferFunction, TransferFunction1D,
+    TransferFunction2D, ValueUnits, Widget, DEFAULT_LUT_SIZE,
+};
+use crate::error::{Error, Result};
+use crate::lights::{Light, Lighting};
+use crate::render::raycast::{GradientShading, RaycastParams, Shading};
+use crate::volume::{self, phantom, LoadOptions, NonFinite, RawSpec, ScalarType, Volume};
+use glam::Vec3;
+use serde::Deserialize;
+use std::path::{Path, PathBuf};
+
+/// A scene ready to run: every field validated.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Scene {
+    pub volume: VolumeSource,
+    pub classification: Classification,
+    pub camera: Camera,
+    pub lighting: Lighting,
+    pub method: Method,
+}
+
+/// Where the volume comes from and how it is placed in the world.
+#[derive(Clone, Debug, PartialEq)]
+pub struct VolumeSource {
+    pub kind: SourceKind,
+    pub options: LoadOptions,
+    /// Scale so that the largest bounding-box extent is this many world units.
+    pub fit: Option<f32>,
+    /// Move the bounding box's centre here.
+    pub centre: Option<Vec3>,
+}
+
+#[derive(Clone, Debug, PartialEq)]
+pub enum SourceKind {
+    File(PathBuf),
+    Phantom { name: String, size: usize },
+}
+
+/// The rendering method and its parameters.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Method {
+    Raycast(RaycastParams),
+}
+
+/// The method names a scene accepts.
+pub const METHODS: &[&str] = &["unshaded", "gradient"];
+
+impl Scene {
+    /// Reads and validates a scene file; relative volume paths are resolved against its folder.
+    pub fn from_file(path: &Path) -> Result<Self> {
+        let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+        let base = path.parent().unwrap_or(Path::new("."));
+        Self::parse(&text, base).map_err(|e| match e {
+            Error::Param { .. } => Error::format(path, e.to_string()),
+            other => other,
+        })
+    }
+
+    /// Parses and validates scene text; `base` resolves relative paths.
+    pub fn parse(text: &str, base: &Path) -> Result<Self> {
+        let file: SceneFile = toml::from_str(text).map_err(|e| Error::param("scene", e.message()))?;
+        file.resolve(base)
+    }
+
+    /// Loads (or generates) the volume and places it in the world.
+    pub fn load_volume(&self) -> Result<Volume> {
+        let src = &self.volume;
+        let mut volume = match &src.kind {
+            SourceKind::File(path) => volume::load(path, &src.options)?,
+            SourceKind::Phantom { name, size } => phantom::by_name(name, *size)?,
+        };
+        if let Some(fit) = src.fit {
+            let (lo, hi) = volume.bounds();
+            let scale = fit / (hi - lo).max_element();
+            volume = Volume::new(
+                volume.dims(),
+                volume.spacing() * scale,
+                volume.origin() * scale,
+                volume.into_values(),
+            )?;
+        }
+        if let Some(centre) = src.centre {
+            volume = volume.with_centre(centre);
+        }
+        Ok(volume)
+    }
+}
+
+// ---- The file's form: serde structs that mirror the TOML. ----
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct SceneFile {
+    volume: VolumeSection,
+    #[serde(default)]
+    classification: ClassificationSection,
+    camera: CameraSection,
+    #[serde(default)]
+    lights: Vec<LightSection>,
+    #[serde(default)]
+    background: Option<Colour>,
+    #[serde(default)]
+    render: RenderSection,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct VolumeSection {
+    path: Option<PathBuf>,
+    phantom: Option<String>,
+    size: Option<usize>,
+    grid: Option<String>,
+    raw: Option<RawSection>,
+    fit: Option<f32>,
+    centre: Option<[f32; 3]>,
+    /// Substitute for NaN/infinite values; absent: such values are an error.
+    replace_non_finite: Option<f32>,
+    memory_budget_gib: Option<f64>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawSection {
+    dims: [usize; 3],
+    #[serde(rename = "type")]
+    scalar: String,
+    #[serde(default = "unit_spacing")]
+    spacing: [f32; 3],
+    #[serde(default)]
+    origin: [f32; 3],
+    #[serde(default)]
+    big_endian: bool,
+    #[serde(default)]
+    header_bytes: u64,
+}
+
+fn unit_spacing() -> [f32; 3] {
+    [1.0; 3]
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct ClassificationSection {
+    preset: Option<String>,
+    #[serde(default)]
+    units: ValueUnits,
+    points: Option<Vec<ControlPoint>>,
+    widgets: Option<Vec<Widget>>,
+    #[serde(default = "one")]
+    density_scale: f32,
+    #[serde(default = "default_lut_size")]
+    lut_size: usize,
+}
+
+impl Default for ClassificationSection {
+    fn default() -> Self {
+        Self {
+            preset: None,
+            units: ValueUnits::default(),
+            points: None,
+            widgets: None,
+            density_scale: 1.0,
+            lut_size: DEFAULT_LUT_SIZE,
+        }
+    }
+}
+
+fn one() -> f32 {
+    1.0
+}
+fn default_lut_size() -> usize {
+    DEFAULT_LUT_SIZE
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct CameraSection {
+    #[serde(default)]
+    projection: ProjectionKind,
+    position: [f32; 3],
+    #[serde(default)]
+    target: [f32; 3],
+    #[serde(default = "z_up")]
+    up: [f32; 3],
+    fov_deg: Option<f32>,
+    lens_mm: Option<f32>,
+    sensor_mm: Option<f32>,
+    ortho_scale: Option<f32>,
+    #[serde(default = "default_side")]
+    width: u32,
+    #[serde(default = "default_side")]
+    height: u32,
+}
+
+fn z_up() -> [f32; 3] {
+    [0.0, 0.0, 1.0]
+}
+fn default_side() -> u32 {
+    512
+}
+
+#[derive(Deserialize, Default, PartialEq, Eq)]
+#[serde(rename_all = "lowercase")]
+enum ProjectionKind {
+    #[default]
+    Perspective,
+    Orthographic,
+}
+
+/// A grey level or an RGB triple.
+#[derive(Deserialize, Clone, Copy)]
+#[serde(untagged)]
+enum Colour {
+    Grey(f32),
+    Rgb([f32; 3]),
+}
+
+impl Colour {
+    fn rgb(self) -> Vec3 {
+        match self {
+            Colour::Grey(g) => Vec3::splat(g),
+            Colour::Rgb(c) => Vec3::from(c),
+        }
+    }
+}
+
+#[derive(Deserialize)]
+#[serde(tag = "type", rename_all = "lowercase", deny_unknown_fields)]
+enum LightSection {
+    Ambient { radiance: Colour },
+    Directional { direction: [f32; 3], irradiance: Colour },
+    Point { position: [f32; 3], intensity: Colour },
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RenderSection {
+    #[serde(default = "default_method")]
+    method: String,
+    step: Option<f32>,
+    #[serde(default = "default_ert")]
+    ert_threshold: f32,
+    specular: Option<f32>,
+    shininess: Option<f32>,
+    normal_threshold: Option<f32>,
+}
+
+impl Default for RenderSection {
+    fn default() -> Self {
+        Self {
+            method: default_method(),
+            step: None,
+            ert_threshold: default_ert(),
+            specular: None,
+            shininess: None,
+            normal_threshold: None,
+        }
+    }
+}
+
+fn default_method() -> String {
+    "gradient".into()
+}
+fn default_ert() -> f32 {
+    RaycastParams::default().ert_threshold
+}
+
+impl SceneFile {
+    fn resolve(self, base: &Path) -> Result<Scene> {
+        let scene = Scene {
+            volume: self.volume.resolve(base)?,
+            classification: self.classification.resolve()?,
+            camera: self.camera.resolve()?,
+            lighting: Lighting {
+                lights: self
+                    .lights
+                    .into_iter()
+                    .enumerate()
+                    .map(|(i, l)| l.resolve(i))
+                    .collect::<Result<_>>()?,
+                background: self.background.map_or(Vec3::ZERO, Colour::rgb),
+            },
+            method: self.render.resolve()?,
+        };
+        scene.lighting.validate()?;
+        Ok(scene)
+    }
+}
+
+impl VolumeSection {
+    fn resolve(self, base: &Path) -> Result<VolumeSource> {
+        let kind = match (self.path, self.phantom) {
+            (Some(path), None) => SourceKind::File(base.join(path)),
+            (None, Some(name)) => {
+                let size = self.size.unwrap_or(64);
+                phantom::check_name(&name)?;
+                if !(2..=phantom::MAX_SIDE).contains(&size) {
+                    return Err(Error::param(
+                        "volume.size",
+                        format!("must be in 2..={}, got {size}", phantom::MAX_SIDE),
+                    ));
+                }
+                SourceKind::Phantom { name, size }
+            }
+            _ => {
+                return Err(Error::param(
+                    "volume",
+                    "give exactly one of `path` (a volume file) or `phantom` (a built-in)",
+                ))
+            }
+        };
+        if let Some(fit) = self.fit {
+            if !(fit > 0.0 && fit.is_finite()) {
+                return Err(Error::param("volume.fit", format!("must be positive, got {fit}")));
+            }
+        }
+        let centre = self.centre.map(Vec3::from);
+        if centre.is_some_and(|c| !c.is_finite()) {
+            return Err(Error::param("volume.centre", "must be finite"));
+        }
+        let mut options = LoadOptions {
+            grid: self.grid,
+            ..LoadOptions::default()
+        };
+        if let Some(x) = self.replace_non_finite {
+            if !x.is_finite() {
+                return Err(Error::param("volume.replace_non_finite", "must be finite"));
+            }
+            options.non_finite = NonFinite::Replace(x);
+        }
+        if let Some(gib) = self.memory_budget_gib {
+            if !(gib > 0.0 && gib.is_finite()) {
+                return Err(Error::param(
+                    "volume.memory_budget_gib",
+                    format!("must be positive, got {gib}"),
+                ));
+            }
+            options.memory_budget = (gib * (1u64 << 30) as f64) as u64;
+        }
+        if let Some(raw) = self.raw {
+            options.raw = Some(RawSpec {
+                dims: raw.dims,
+                scalar: ScalarType::from_name(&raw.scalar)
+                    .ok_or_else(|| Error::param("volume.raw.type", format!("unknown type '{}'", raw.scalar)))?,
+                spacing: Vec3::from(raw.spacing),
+                origin: Vec3::from(raw.origin),
+                big_endian: raw.big_endian,
+                header_bytes: raw.header_bytes,
+            });
+        }
+        Ok(VolumeSource {
+            kind,
+            options,
+            fit: self.fit,
+            centre,
+        })
+    }
+}
+
+impl ClassificationSection {
+    fn resolve(self) -> Result<Classification> {
+        let mut c = match (self.preset, self.points, self.widgets) {
+            (Some(name), None, None) => presets::preset(&name)?,
+            (None, Some(points), None) => Classification {
+                tf: TransferFunction::OneD(TransferFunction1D::new(points)?),
+                units: self.units,
+                density_scale: 1.0,
+                lut_size: DEFAULT_LUT_SIZE,
+            },
+            (None, None, Some(widgets)) => Classification {
+                tf: TransferFunction::TwoD(TransferFunction2D::new(widgets)?),
+                units: self.units,
+                density_scale: 1.0,
+                lut_size: DEFAULT_LUT_SIZE,
+            },
+            (None, None, None) => presets::preset("ct-bone")?,
+            _ => {
+                return Err(Error::param(
+                    "classification",
+                    "give one of `preset`, `points` (1D) or `widgets` (2D)",
+                ))
+            }
+        };
+        c.density_scale = self.density_scale;
+        c.lut_size = self.lut_size;
+        c.validate()?;
+        Ok(c)
+    }
+}
+
+impl CameraSection {
+    fn resolve(self) -> Result<Camera> {
+        let projection = match self.projection {
+            ProjectionKind::Perspective => {
+                if self.ortho_scale.is_some() {
+                    return Err(Error::param(
+                        "camera.ortho_scale",
+                        "only for projection = \"orthographic\"",
+                    ));
+                }
+                let fov_y = match (self.fov_deg, self.lens_mm) {
+                    (Some(deg), None) => {
+                        if self.sensor_mm.is_some() {
+                            return Err(Error::param("camera.sensor_mm", "only with lens_mm"));
+                        }
+                        deg.to_radians()
+                    }
+                    (None, Some(lens)) => Camera::fov_y_from_lens(
+                        lens,
+                        self.sensor_mm.unwrap_or(36.0),
+                        self.width,
+                        self.height,
+                    )?,
+                    (None, None) => 40f32.to_radians(),
+                    (Some(_), Some(_)) => {
+                        return Err(Error::param("camera.fov_deg", "give fov_deg or lens_mm, not both"))
+                    }
+                };
+                Projection::Perspective { fov_y }
+            }
+            ProjectionKind::Orthographic => {
+                if self.fov_deg.is_some() || self.lens_mm.is_some() {
+                    return Err(Error::param(
+                        "camera.fov_deg",
+                        "fov_deg and lens_mm are only for perspective cameras",
+                    ));
+                }
+                Projection::Orthographic {
+                    scale: self.ortho_scale.unwrap_or(2.0),
+                }
+            }
+        };
+        Camera::look_at(
+            Vec3::from(self.position),
+            Vec3::from(self.target),
+            Vec3::from(self.up),
+            projection,
+            self.width,
+            self.height,
+        )
+    }
+}
+
+impl LightSection {
+    fn resolve(self, index: usize) -> Result<Light> {
+        Ok(match self {
+            LightSection::Ambient { radiance } => Light::Ambient {
+                radiance: radiance.rgb(),
+            },
+            LightSection::Directional {
+                direction,
+                irradiance,
+            } => {
+                let d = Vec3::from(direction);
+                if !d.is_finite() || d.length() == 0.0 {
+                    return Err(Error::param(
+                        format!("lights[{index}].direction"),
+                        "must be a finite non-zero vector",
+                    ));
+                }
+                Light::Directional {
+                    to_light: d.normalize(),
+                    irradiance: irradiance.rgb(),
+                }
+            }
+            LightSection::Point {
+                position,
+                intensity,
+            } => Light::Point {
+                position: Vec3::from(position),
+                intensity: intensity.rgb(),
+            },
+        })
+    }
+}
+
+impl RenderSection {
+    fn resolve(self) -> Result<Method> {
+        let shading = match self.method.as_str() {
+            "unshaded" => {
+                if self.specular.is_some() || self.shininess.is_some() || self.normal_threshold.is_some() {
+                    return Err(Error::param(
+                        "render.specular",
+                        "specular, shininess and normal_threshold are for method = \"gradient\"",
+                    ));
+                }
+                Shading::Unshaded
+            }
+            "gradient" => {
+                let d = GradientShading::default();
+                Shading::Gradient(GradientShading {
+                    specular: self.specular.unwrap_or(d.specular),
+                    shininess: self.shininess.unwrap_or(d.shininess),
+                    normal_threshold: self.normal_threshold.unwrap_or(d.normal_threshold),
+                })
+            }
+            other => {
+                return Err(Error::param(
+                    "render.method",
+                    format!("unknown method '{other}'; known: {}", METHODS.join(", ")),
+                ))
+            }
+        };
+        let params = RaycastParams {
+            shading,
+            step: self.step,
+            ert_threshold: self.ert_threshold,
+        };
+        params.validate()?;
+        Ok(Method::Raycast(params))
+    }
+}

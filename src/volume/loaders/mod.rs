@@ -1,0 +1,619 @@
+//! Volume loaders: NRRD (`.nrrd`, `.nhdr`), NIfTI-1 (`.nii`, `.nii.gz`), OpenVDB (`.vdb`),
+//! headerless raw (`.raw`) and NumPy (`.npy`) files into a [`Volume`].
+//!
+//! Every loader takes the same steps, so bad input fails the same way in every format:
+//! parse the header; build a [`Layout`], which checks the memory budget before any data is read
+//! or decompressed; read exactly the payload's bytes ([`read_payload`]); convert them with the one
+//! shared [`decode`]; hand the values to [`finish`], which applies the [`NonFinite`] policy and
+//! builds the volume. Every error names the file.
+
+mod nifti;
+mod npy;
+mod nrrd;
+mod raw;
+mod vdb;
+
+use super::{Volume, DEFAULT_MEMORY_BUDGET};
+use crate::error::{Error, Result};
+use glam::Vec3;
+use rayon::prelude::*;
+use std::io::{self, ErrorKind, Read};
+use std::path::Path;
+
+/// How a file stores each voxel value.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum ScalarType {
+    U8,
+    I8,
+    U16,
+    I16,
+    U32,
+    I32,
+    F32,
+    F64,
+}
+
+impl ScalarType {
+    pub const ALL: [ScalarType; 8] = [
+        ScalarType::U8,
+        ScalarType::I8,
+        ScalarType::U16,
+        ScalarType::I16,
+        ScalarType::U32,
+        ScalarType::I32,
+        ScalarType::F32,
+        ScalarType::F64,
+    ];
+
+    /// Canonical name: "uint8", "int8", "uint16", "int16", "uint32", "int32", "float32", "float64".
+    pub fn name(self) -> &'static str {
+        match self {
+            ScalarType::U8 => "uint8",
+            ScalarType::I8 => "int8",
+            ScalarType::U16 => "uint16",
+            ScalarType::I16 => "int16",
+            ScalarType::U32 => "uint32",
+            ScalarType::I32 => "int32",
+            ScalarType::F32 => "float32",
+            ScalarType::F64 => "float64",
+        }
+    }
+
+    /// Bytes per value.
+    pub fn size(self) -> usize {
+        match self {
+            ScalarType::U8 | ScalarType::I8 => 1,
+            ScalarType::U16 | ScalarType::I16 => 2,
+            ScalarType::U32 | ScalarType::I32 | ScalarType::F32 => 4,
+            ScalarType::F64 => 8,
+        }
+    }
+
+    /// Parses a type name, case-insensitively: the canonical names, NRRD's spellings
+    /// (`uchar`, `unsigned char`, `short`, `ushort`, `unsigned short int`, `int`, `uint`, `float`,
+    /// `double`, ...), the `<stdint.h>` names (`uint8_t`, ...) and Rust's (`u8`, `f32`, ...).
+    /// 64-bit integers are not supported (they do not fit f32 without silent loss).
+    pub fn from_name(name: &str) -> Option<Self> {
+        let name = name.split_whitespace().collect::<Vec<_>>().join(" ");
+        Some(match name.to_ascii_lowercase().as_str() {
+            "uint8" | "uint8_t" | "u8" | "uchar" | "unsigned char" => ScalarType::U8,
+            "int8" | "int8_t" | "i8" | "signed char" => ScalarType::I8,
+            "uint16" | "uint16_t" | "u16" | "ushort" | "unsigned short" | "unsigned short int" => {
+                ScalarType::U16
+            }
+            "int16" | "int16_t" | "i16" | "short" | "short int" | "signed short"
+            | "signed short int" => ScalarType::I16,
+            "uint32" | "uint32_t" | "u32" | "uint" | "unsigned int" => ScalarType::U32,
+            "int32" | "int32_t" | "i32" | "int" | "signed int" => ScalarType::I32,
+            "float32" | "f32" | "float" => ScalarType::F32,
+            "float64" | "f64" | "double" => ScalarType::F64,
+            _ => return None,
+        })
+    }
+
+    /// The canonical names, for error messages.
+    fn supported() -> String {
+        Self::ALL.map(Self::name).join(", ")
+    }
+}
+
+/// What to do with NaN and infinite voxel values.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub enum NonFinite {
+    /// Fail, naming the first offending voxel.
+    #[default]
+    Reject,
+    /// Substitute this value.
+    Replace(f32),
+}
+
+/// How to read a headerless `.raw` file.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RawSpec {
+    /// Voxels along x, y, z; x varies fastest in the file.
+    pub dims: [usize; 3],
+    pub scalar: ScalarType,
+    pub spacing: Vec3,
+    /// World position of the centre of voxel (0, 0, 0).
+    pub origin: Vec3,
+    pub big_endian: bool,
+    /// Bytes to skip at the start of the file.
+    pub header_bytes: u64,
+}
+
+/// Options common to all loaders.
+#[derive(Clone, Debug, PartialEq)]
+pub struct LoadOptions {
+    /// Largest volume to allocate, in bytes of f32 values. Default [`DEFAULT_MEMORY_BUDGET`].
+    pub memory_budget: u64,
+    /// Policy for NaN and infinite values. Default [`NonFinite::Reject`].
+    pub non_finite: NonFinite,
+    /// Layout of a `.raw` file (required for `.raw`, ignored otherwise).
+    pub raw: Option<RawSpec>,
+    /// Name of the grid to read from a `.vdb` file (default: the only or first float grid).
+    pub grid: Option<String>,
+}
+
+impl Default for LoadOptions {
+    fn default() -> Self {
+        Self {
+            memory_budget: DEFAULT_MEMORY_BUDGET,
+            non_finite: NonFinite::Reject,
+            raw: None,
+            grid: None,
+        }
+    }
+}
+
+/// What a file held, for reporting (`occlux info`).
+#[derive(Clone, Debug, PartialEq)]
+pub struct SourceInfo {
+    /// Format name, e.g. "NRRD".
+    pub format: &'static str,
+    /// Stored value type, e.g. "uint8" (see [`ScalarType::name`]).
+    pub scalar: String,
+    /// The grid read, for formats with several (VDB).
+    pub grid: Option<String>,
+}
+
+const SUPPORTED: &str = ".nrrd, .nhdr, .nii, .nii.gz, .vdb, .raw, .npy";
+
+/// Loads a volume, choosing the format by the file's extension.
+pub fn load(path: &Path, opts: &LoadOptions) -> Result<Volume> {
+    load_with_info(path, opts).map(|(volume, _)| volume)
+}
+
+/// Loads a volume and says what the file held.
+pub fn load_with_info(path: &Path, opts: &LoadOptions) -> Result<(Volume, SourceInfo)> {
+    let name = path
+        .file_name()
+        .map(|n| n.to_string_lossy().to_ascii_lowercase())
+        .unwrap_or_default();
+    if name.ends_with(".nii.gz") {
+        return nifti::load(path, opts);
+    }
+    let extension = name.rsplit_once('.').map_or("", |(_, ext)| ext);
+    match extension {
+        "nrrd" | "nhdr" => nrrd::load(path, opts),
+        "nii" => nifti::load(path, opts),
+        "vdb" => vdb::load(path, opts),
+        "raw" => raw::load(path, opts),
+        "npy" => npy::load(path, opts),
+        _ => Err(Error::format(
+            path,
+            format!("unsupported file extension (supported: {SUPPORTED})"),
+        )),
+    }
+}
+
+/// The payload a header describes: dims (x fastest) and how each value is stored. Building one
+/// checks the memory budget, so no loader can read data before that check.
+#[derive(Clone, Copy, Debug)]
+struct Layout {
+    dims: [usize; 3],
+    scalar: ScalarType,
+    big_endian: bool,
+    byte_len: usize,
+}
+
+impl Layout {
+    /// Checks `dims` against the memory budget (before anything is allocated or decompressed).
+    fn checked(
+        path: &Path,
+        dims: [usize; 3],
+        scalar: ScalarType,
+        big_endian: bool,
+        opts: &LoadOptions,
+    ) -> Result<Self> {
+        let count = super::check_budget(dims, opts.memory_budget).map_err(|e| in_file(path, e))?;
+        let byte_len = count.checked_mul(scalar.size()).ok_or_else(|| {
+            Error::format(
+                path,
+                format!("{} overflow the address space", describe(dims, scalar)),
+            )
+        })?;
+        Ok(Self {
+            dims,
+            scalar,
+            big_endian,
+            byte_len,
+        })
+    }
+
+    fn describe(&self) -> String {
+        describe(self.dims, self.scalar)
+    }
+}
+
+fn describe(dims: [usize; 3], scalar: ScalarType) -> String {
+    format!("{}x{}x{} {}", dims[0], dims[1], dims[2], scalar.name())
+}
+
+/// Turns a volume-level error into one that names the file.
+fn in_file(path: &Path, error: Error) -> Error {
+    match error {
+        Error::Volume(message) => Error::format(path, message),
+        other => other,
+    }
+}
+
+/// Reads exactly the payload's bytes from `reader`; `what` names the data in messages ("gzip
+/// data"). Fewer bytes, a decoding error, or bytes left over are errors stating expected vs found:
+/// left-over data means the header's sizes or type do not describe the file.
+fn read_payload(
+    path: &Path,
+    mut reader: impl Read,
+    what: &str,
+    layout: &Layout,
+) -> Result<Vec<u8>> {
+    let expected = layout.byte_len;
+    let mut bytes = Vec::new();
+    bytes.try_reserve_exact(expected).map_err(|_| {
+        Error::format(
+            path,
+            format!("cannot allocate {expected} bytes for {}", layout.describe()),
+        )
+    })?;
+    bytes.resize(expected, 0);
+    let mut filled = 0;
+    while filled < expected {
+        match reader.read(&mut bytes[filled..]) {
+            Ok(0) => {
+                return Err(Error::format(
+                    path,
+                    format!(
+                        "{what} truncated: {} need {expected} bytes, found {filled}",
+                        layout.describe()
+                    ),
+                ))
+            }
+            Ok(n) => filled += n,
+            Err(e) if e.kind() == ErrorKind::Interrupted => {}
+            Err(e) => {
+                return Err(Error::format(
+                    path,
+                    format!(
+                        "{what} corrupt or truncated after {filled} of the {expected} bytes that {} need: {e}",
+                        layout.describe()
+                    ),
+                ))
+            }
+        }
+    }
+    let mut probe = [0u8; 1];
+    match reader.read(&mut probe) {
+        Ok(0) => Ok(bytes),
+        Ok(_) => Err(Error::format(
+            path,
+            format!(
+                "{what} longer than expected: {} need {expected} bytes and more follow (check sizes and type)",
+                layout.describe()
+            ),
+        )),
+        Err(e) => Err(Error::format(
+            path,
+            format!("{what} corrupt or truncated after its {expected} bytes: {e}"),
+        )),
+    }
+}
+
+/// Reads and discards `count` bytes before the payload; `what` names the skip in messages.
+fn skip(path: &Path, reader: &mut impl Read, count: u64, what: &str) -> Result<()> {
+    let skipped = io::copy(&mut reader.take(count), &mut io::sink())
+        .map_err(|e| Error::format(path, format!("{what}: cannot read the file: {e}")))?;
+    if skipped < count {
+        return Err(Error::format(
+            path,
+            format!("{what}: the file ends after {skipped} of the {count} bytes to skip"),
+        ));
+    }
+    Ok(())
+}
+
+/// The one conversion of stored values to f32, used by every loader: `bytes` holds
+/// `layout.byte_len` packed values in the layout's type and byte order. Integers convert
+/// exactly up to 2^24 and round beyond; doubles round to the nearest f32.
+fn decode(bytes: &[u8], layout: &Layout) -> Vec<f32> {
+    let big = layout.big_endian;
+    match layout.scalar {
+        ScalarType::U8 => bytes.par_iter().map(|&b| f32::from(b)).collect(),
+        ScalarType::I8 => bytes.par_iter().map(|&b| f32::from(b as i8)).collect(),
+        ScalarType::U16 => convert(bytes, big, |b| f32::from(u16::from_le_bytes(b))),
+        ScalarType::I16 => convert(bytes, big, |b| f32::from(i16::from_le_bytes(b))),
+        ScalarType::U32 => convert(bytes, big, |b| u32::from_le_bytes(b) as f32),
+        ScalarType::I32 => convert(bytes, big, |b| i32::from_le_bytes(b) as f32),
+        ScalarType::F32 => convert(bytes, big, f32::from_le_bytes),
+        ScalarType::F64 => convert(bytes, big, |b| f64::from_le_bytes(b) as f32),
+    }
+}
+
+/// Applies `from_le` to each `N`-byte value, reversing big-endian values first so that byte
+/// order is handled in this one place.
+fn convert<const N: usize>(
+    bytes: &[u8],
+    big_endian: bool,
+    from_le: impl Fn([u8; N]) -> f32 + Sync,
+) -> Vec<f32> {
+    bytes
+        .par_chunks_exact(N)
+        .map(|chunk| {
+            let mut value = [0u8; N];
+            value.copy_from_slice(chunk);
+            if big_endian {
+                value.reverse();
+            }
+            from_le(value)
+        })
+        .collect()
+}
+
+/// Where a grid sits in world space.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Placement {
+    spacing: Vec3,
+    /// World position of the centre of voxel (0, 0, 0) after flipping.
+    origin: Vec3,
+    /// Axes whose data is reversed so that index and world coordinates grow together.
+    flip: [bool; 3],
+}
+
+impl Placement {
+    /// An axis-aligned grid with the data in stored order; `spacing` is already validated.
+    fn grid(spacing: Vec3, origin: Vec3) -> Self {
+        Self {
+            spacing,
+            origin,
+            flip: [false; 3],
+        }
+    }
+
+    /// Placement from an index-to-world frame: `steps[a]` is the world step of index axis `a`
+    /// (a column of the affine matrix) and `origin` the world position of voxel (0, 0, 0).
+    /// `field` names the header field for messages.
+    ///
+    /// Spacing is each step's length. When each step is parallel to its own world axis (the
+    /// matrix is diagonal), a negative step flips the data along that axis and moves the origin
+    /// to the other end, so every voxel keeps its world position. A rotated, oblique or permuted
+    /// frame cannot be expressed by a [`Volume`]: its rotation is dropped, keeping the step
+    /// lengths and the origin, so the volume appears in its own index frame.
+    fn from_frame(
+        path: &Path,
+        field: &str,
+        steps: [[f64; 3]; 3],
+        origin: [f64; 3],
+        dims: [usize; 3],
+    ) -> Result<Self> {
+        if origin.iter().any(|o| !o.is_finite()) {
+            return Err(Error::format(
+                path,
+                format!("{field}: origin {origin:?} is not finite"),
+            ));
+        }
+        let mut lengths = [0.0f64; 3];
+        for (a, step) in steps.iter().enumerate() {
+            let length = step.iter().map(|s| s * s).sum::<f64>().sqrt();
+            if !(length.is_finite() && length > 0.0) {
+                return Err(Error::format(
+                    path,
+                    format!(
+                        "{field}: axis {a} step {step:?} must be finite and of non-zero length"
+                    ),
+                ));
+            }
+            lengths[a] = length;
+        }
+        let diagonal =
+            (0..3).all(|a| (0..3).all(|w| w == a || steps[a][w].abs() <= 1e-6 * lengths[a]));
+        let mut world = origin;
+        let mut flip = [false; 3];
+        if diagonal {
+            for a in 0..3 {
+                if steps[a][a] < 0.0 {
+                    flip[a] = true;
+                    world[a] += dims[a].saturating_sub(1) as f64 * steps[a][a];
+                }
+            }
+        }
+        Ok(Self {
+            spacing: Vec3::new(lengths[0] as f32, lengths[1] as f32, lengths[2] as f32),
+            origin: Vec3::new(world[0] as f32, world[1] as f32, world[2] as f32),
+            flip,
+        })
+    }
+}
+
+/// Checks that per-axis spacings from `field` are positive and finite.
+fn check_spacing(path: &Path, field: &str, spacing: [f64; 3]) -> Result<Vec3> {
+    for (a, &s) in spacing.iter().enumerate() {
+        if !(s.is_finite() && s > 0.0) {
+            return Err(Error::format(
+                path,
+                format!("{field}: axis {a} spacing must be positive and finite, got {s}"),
+            ));
+        }
+    }
+    Ok(Vec3::new(
+        spacing[0] as f32,
+        spacing[1] as f32,
+        spacing[2] as f32,
+    ))
+}
+
+/// The common last step: applies the non-finite policy (voxel indices as stored in the file),
+/// flips the axes the placement asks for, and builds the volume.
+fn finish(
+    path: &Path,
+    dims: [usize; 3],
+    placement: Placement,
+    mut values: Vec<f32>,
+    opts: &LoadOptions,
+) -> Result<Volume> {
+    apply_non_finite(path, dims, &mut values, opts.non_finite)?;
+    flip_axes(&mut values, dims, placement.flip);
+    Volume::new(dims, placement.spacing, placement.origin, values).map_err(|e| in_file(path, e))
+}
+
+fn apply_non_finite(
+    path: &Path,
+    dims: [usize; 3],
+    values: &mut [f32],
+    policy: NonFinite,
+) -> Result<()> {
+    match policy {
+        NonFinite::Reject => match values.par_iter().position_first(|v| !v.is_finite()) {
+            None => Ok(()),
+            Some(index) => {
+                let [nx, ny] = [dims[0].max(1), dims[1].max(1)];
+                let (i, j, k) = (index % nx, (index / nx) % ny, index / (nx * ny));
+                Err(Error::format(
+                    path,
+                    format!(
+                        "voxel [{i}, {j}, {k}] holds {}: non-finite values are rejected unless a \
+                         replacement value is given (scene key volume.replace_non_finite)",
+                        values[index]
+                    ),
+                ))
+            }
+        },
+        NonFinite::Replace(x) => {
+            values
+                .par_iter_mut()
+                .filter(|v| !v.is_finite())
+                .for_each(|v| *v = x);
+            Ok(())
+        }
+    }
+}
+
+/// Reverses the data along each flagged axis (x fastest).
+fn flip_axes(values: &mut [f32], dims: [usize; 3], flip: [bool; 3]) {
+    let [nx, ny, _] = dims;
+    if nx == 0 || ny == 0 {
+        return; // nothing to flip; Volume::new reports the bad dims
+    }
+    if flip[0] {
+        values
+            .par_chunks_exact_mut(nx)
+            .for_each(|row| row.reverse());
+    }
+    if flip[1] {
+        values
+            .par_chunks_exact_mut(nx * ny)
+            .for_each(|slab| reverse_blocks(slab, nx));
+    }
+    if flip[2] {
+        reverse_blocks(values, nx * ny);
+    }
+}
+
+/// Reverses the order of the `block`-sized pieces of `data`, keeping each piece intact.
+fn reverse_blocks(data: &mut [f32], block: usize) {
+    let count = data.len() / block;
+    for b in 0..count / 2 {
+        let (low, high) = data.split_at_mut((count - 1 - b) * block);
+        low[b * block..(b + 1) * block].swap_with_slice(&mut high[..block]);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn layout(scalar: ScalarType, big_endian: bool, count: usize) -> Layout {
+        Layout::checked(
+            Path::new("t"),
+            [count, 1, 1],
+            scalar,
+            big_endian,
+            &LoadOptions::default(),
+        )
+        .unwrap()
+    }
+
+    #[test]
+    fn decode_handles_every_type_and_byte_order() {
+        let cases: [(ScalarType, f64); 8] = [
+            (ScalarType::U8, 200.0),
+            (ScalarType::I8, -100.0),
+            (ScalarType::U16, 60000.0),
+            (ScalarType::I16, -30000.0),
+            (ScalarType::U32, 4_000_000.0),
+            (ScalarType::I32, -2_000_000.0),
+            (ScalarType::F32, -1.5e-3),
+            (ScalarType::F64, 12345.25),
+        ];
+        for (scalar, value) in cases {
+            let le: Vec<u8> = match scalar {
+                ScalarType::U8 => vec![value as u8],
+                ScalarType::I8 => (value as i8).to_le_bytes().to_vec(),
+                ScalarType::U16 => (value as u16).to_le_bytes().to_vec(),
+                ScalarType::I16 => (value as i16).to_le_bytes().to_vec(),
+                ScalarType::U32 => (value as u32).to_le_bytes().to_vec(),
+                ScalarType::I32 => (value as i32).to_le_bytes().to_vec(),
+                ScalarType::F32 => (value as f32).to_le_bytes().to_vec(),
+                ScalarType::F64 => value.to_le_bytes().to_vec(),
+            };
+            let be: Vec<u8> = le.iter().rev().copied().collect();
+            assert_eq!(
+                decode(&le, &layout(scalar, false, 1)),
+                vec![value as f32],
+                "{scalar:?}"
+            );
+            assert_eq!(
+                decode(&be, &layout(scalar, true, 1)),
+                vec![value as f32],
+                "{scalar:?}"
+            );
+        }
+    }
+
+    #[test]
+    fn names_round_trip_and_aliases_parse() {
+        for scalar in ScalarType::ALL {
+            assert_eq!(ScalarType::from_name(scalar.name()), Some(scalar));
+        }
+        assert_eq!(
+            ScalarType::from_name("Unsigned  Char"),
+            Some(ScalarType::U8)
+        );
+        assert_eq!(ScalarType::from_name("double"), Some(ScalarType::F64));
+        assert_eq!(ScalarType::from_name("int64"), None);
+    }
+
+    #[test]
+    fn negative_diagonal_steps_flip_and_keep_world_positions() {
+        let steps = [[-2.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, -0.5]];
+        let p =
+            Placement::from_frame(Path::new("t"), "f", steps, [10.0, 1.0, 3.0], [4, 2, 3]).unwrap();
+        assert_eq!(p.flip, [true, false, true]);
+        assert_eq!(p.spacing, Vec3::new(2.0, 1.0, 0.5));
+        // Stored voxel 3 on x sits at 10 - 3 * 2 = 4, and is now voxel 0.
+        assert_eq!(p.origin, Vec3::new(4.0, 1.0, 2.0));
+        let mut values: Vec<f32> = (0..24).map(|v| v as f32).collect();
+        flip_axes(&mut values, [4, 2, 3], p.flip);
+        // New (i, j, k) holds stored (3 - i, j, 2 - k).
+        for k in 0..3 {
+            for j in 0..2 {
+                for i in 0..4 {
+                    let stored = (3 - i) + 4 * (j + 2 * (2 - k));
+                    assert_eq!(values[i + 4 * (j + 2 * k)], stored as f32);
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn rotated_frames_keep_lengths_and_origin() {
+        let (c, s) = (0.6, 0.8);
+        let steps = [[2.0 * c, 2.0 * s, 0.0], [-s, c, 0.0], [0.0, 0.0, 3.0]];
+        let p =
+            Placement::from_frame(Path::new("t"), "f", steps, [1.0, 2.0, 3.0], [2, 2, 2]).unwrap();
+        assert_eq!(p.flip, [false; 3]);
+        assert!((p.spacing - Vec3::new(2.0, 1.0, 3.0)).length() < 1e-6);
+        assert_eq!(p.origin, Vec3::new(1.0, 2.0, 3.0));
+        let zero = [[0.0; 3], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
+        let err =
+            Placement::from_frame(Path::new("t"), "f", zero, [0.0; 3], [2, 2, 2]).unwrap_err();
+        assert!(err.to_string().contains("axis 0"), "{err}");
+    }
+}

@@ -1,0 +1,249 @@
+//! NIfTI-1 single files (`.nii`, and `.nii.gz` decompressed on the fly). The `nifti` crate parses
+//! the 348-byte header (and detects its byte order); the data goes through the shared reader and
+//! converter like every other format.
+//!
+//! - dims: `dim[1..=3]`; `dim[0]` may exceed 3 when every axis beyond the third has size 1
+//!   (e.g. a 4-D file with one time point).
+//! - values: `value * scl_slope + scl_inter` when `scl_slope` is finite and non-zero; 0 or NaN
+//!   mean "no scaling" (FSL writes 0, nibabel NaN), and a NaN `scl_inter` counts as 0.
+//! - geometry: the sform when `sform_code > 0`, else the qform when `qform_code > 0`, else
+//!   `pixdim` spacing with the origin at 0. The affine's columns and translation go through
+//!   [`Placement::from_frame`]: spacing is each column's length; a diagonal affine with negative
+//!   entries (e.g. a radiological x axis, or qfac = -1) flips the data so that every voxel keeps
+//!   its world position; an oblique or permuted affine keeps the column lengths and the
+//!   translation and drops the rotation, so such a volume appears in its own index frame.
+//!
+//! Not supported (clear errors): `.hdr`/`.img` pairs, NIfTI-2, and complex, RGB and 64-bit
+//! integer data.
+
+use super::{
+    check_spacing, decode, finish, read_payload, skip, Layout, LoadOptions, Placement, ScalarType,
+    SourceInfo,
+};
+use crate::error::{Error, Result};
+use crate::volume::Volume;
+use ::nifti::{Endianness, NiftiError, NiftiHeader};
+use flate2::bufread::GzDecoder;
+use glam::Vec3;
+use rayon::prelude::*;
+use std::fs::File;
+use std::io::{BufReader, ErrorKind, Read};
+use std::path::Path;
+
+/// Bytes of a NIfTI-1 header; the data starts at `vox_offset`, after any extensions.
+const HEADER_BYTES: u64 = 348;
+
+pub(super) fn load(path: &Path, opts: &LoadOptions) -> Result<(Volume, SourceInfo)> {
+    let reader = BufReader::new(File::open(path).map_err(|e| Error::io(path, e))?);
+    let gzipped = path.to_string_lossy().to_ascii_lowercase().ends_with(".gz");
+    if gzipped {
+        load_from(path, GzDecoder::new(reader), opts)
+    } else {
+        load_from(path, reader, opts)
+    }
+}
+
+fn load_from(
+    path: &Path,
+    mut reader: impl Read,
+    opts: &LoadOptions,
+) -> Result<(Volume, SourceInfo)> {
+    let header = NiftiHeader::from_reader(&mut reader).map_err(|e| header_error(path, e))?;
+    check_kind(path, &header)?;
+    let dims = dims(path, &header)?;
+    let scalar = scalar_type(path, header.datatype)?;
+    let big_endian = header.endianness == Endianness::Big;
+    let layout = Layout::checked(path, dims, scalar, big_endian, opts)?;
+    let placement = placement(path, &header, dims)?;
+    skip(
+        path,
+        &mut reader,
+        data_offset(path, header.vox_offset)? - HEADER_BYTES,
+        "vox_offset",
+    )?;
+    let bytes = read_payload(path, reader, "NIfTI data", &layout)?;
+    let mut values = decode(&bytes, &layout);
+    drop(bytes);
+    rescale(&mut values, header.scl_slope, header.scl_inter);
+    let volume = finish(path, dims, placement, values, opts)?;
+    let info = SourceInfo {
+        format: "NIfTI-1",
+        scalar: scalar.name().to_string(),
+        grid: None,
+    };
+    Ok((volume, info))
+}
+
+fn header_error(path: &Path, error: NiftiError) -> Error {
+    let message = match error {
+        NiftiError::Io(e) if e.kind() == ErrorKind::UnexpectedEof => {
+            "file ends inside the 348-byte NIfTI-1 header (empty or truncated)".to_string()
+        }
+        NiftiError::InvalidFormat => {
+            "not a NIfTI-1 file: the magic at byte 344 is neither \"n+1\" nor \"ni1\"".to_string()
+        }
+        other => format!("cannot read the NIfTI-1 header: {other}"),
+    };
+    Error::format(path, message)
+}
+
+/// Only single-file NIfTI-1 is read.
+fn check_kind(path: &Path, header: &NiftiHeader) -> Result<()> {
+    if header.sizeof_hdr != HEADER_BYTES as i32 {
+        return Err(Error::format(
+            path,
+            format!(
+                "sizeof_hdr is {}, not 348: not a NIfTI-1 file (NIfTI-2 is not supported)",
+                header.sizeof_hdr
+            ),
+        ));
+    }
+    if &header.magic != b"n+1\0" {
+        return Err(Error::format(
+            path,
+            "magic \"ni1\" marks a .hdr/.img pair, which is not supported: convert it to a single .nii",
+        ));
+    }
+    Ok(())
+}
+
+fn dims(path: &Path, header: &NiftiHeader) -> Result<[usize; 3]> {
+    // The standard declares dim as signed 16-bit; the crate reads it unsigned.
+    let dim = header.dim.map(|d| d as i16);
+    let rank = dim[0];
+    if !(3..=7).contains(&rank) {
+        return Err(Error::format(
+            path,
+            format!("dim[0] = {rank}: only 3-D volumes are supported (or 4-D with one time point)"),
+        ));
+    }
+    let rank = rank as usize;
+    if let Some(a) = (1..=rank).find(|&a| dim[a] < 1) {
+        return Err(Error::format(
+            path,
+            format!("dim[{a}] = {}: sizes must be positive", dim[a]),
+        ));
+    }
+    if let Some(a) = (4..=rank).find(|&a| dim[a] != 1) {
+        return Err(Error::format(
+            path,
+            format!(
+                "dim[{a}] = {}: only one 3-D volume is supported (axes beyond the third must have size 1)",
+                dim[a]
+            ),
+        ));
+    }
+    Ok([dim[1], dim[2], dim[3]].map(|d| d as usize))
+}
+
+/// NIfTI-1 datatype codes (nifti1.h) of the supported types.
+const DATATYPES: [(i16, ScalarType); 8] = [
+    (2, ScalarType::U8),
+    (4, ScalarType::I16),
+    (8, ScalarType::I32),
+    (16, ScalarType::F32),
+    (64, ScalarType::F64),
+    (256, ScalarType::I8),
+    (512, ScalarType::U16),
+    (768, ScalarType::U32),
+];
+
+fn scalar_type(path: &Path, code: i16) -> Result<ScalarType> {
+    DATATYPES
+        .iter()
+        .find(|(c, _)| *c == code)
+        .map(|(_, scalar)| *scalar)
+        .ok_or_else(|| {
+            let supported: Vec<String> = DATATYPES
+                .iter()
+                .map(|(c, s)| format!("{c} ({})", s.name()))
+                .collect();
+            Error::format(
+                path,
+                format!(
+                    "datatype {code} is not supported (supported: {})",
+                    supported.join(", ")
+                ),
+            )
+        })
+}
+
+/// Geometry from the sform, else the qform, else pixdim (see the module docs).
+fn placement(path: &Path, header: &NiftiHeader, dims: [usize; 3]) -> Result<Placement> {
+    if header.sform_code > 0 {
+        let rows = [header.srow_x, header.srow_y, header.srow_z];
+        let steps = [0, 1, 2].map(|a| rows.map(|row| f64::from(row[a])));
+        let origin = rows.map(|row| f64::from(row[3]));
+        return Placement::from_frame(path, "sform (srow_x/y/z)", steps, origin, dims);
+    }
+    let pixdim = [1, 2, 3].map(|a| f64::from(header.pixdim[a]));
+    let spacing = check_spacing(path, "pixdim[1..=3]", pixdim)?;
+    if header.qform_code > 0 {
+        let rotation = quaternion_rotation(header.quatern_b, header.quatern_c, header.quatern_d);
+        // qfac, stored in pixdim[0], mirrors the third axis.
+        let qfac = if header.pixdim[0] < 0.0 { -1.0 } else { 1.0 };
+        let scale = [pixdim[0], pixdim[1], pixdim[2] * qfac];
+        let steps = [0, 1, 2].map(|a| rotation.map(|row| row[a] * scale[a]));
+        let origin = [header.quatern_x, header.quatern_y, header.quatern_z].map(f64::from);
+        return Placement::from_frame(path, "qform", steps, origin, dims);
+    }
+    Ok(Placement::grid(spacing, Vec3::ZERO))
+}
+
+/// Rotation matrix (rows) of the unit quaternion (a, b, c, d), a >= 0 implied, as in nifti1_io.c.
+fn quaternion_rotation(b: f32, c: f32, d: f32) -> [[f64; 3]; 3] {
+    let (mut b, mut c, mut d) = (f64::from(b), f64::from(c), f64::from(d));
+    let rest = 1.0 - (b * b + c * c + d * d);
+    let a = if rest < 1e-7 {
+        // |(b, c, d)| >= 1: a 180-degree rotation; renormalise.
+        let norm = (b * b + c * c + d * d).sqrt();
+        (b, c, d) = (b / norm, c / norm, d / norm);
+        0.0
+    } else {
+        rest.sqrt()
+    };
+    [
+        [
+            a * a + b * b - c * c - d * d,
+            2.0 * (b * c - a * d),
+            2.0 * (b * d + a * c),
+        ],
+        [
+            2.0 * (b * c + a * d),
+            a * a + c * c - b * b - d * d,
+            2.0 * (c * d - a * b),
+        ],
+        [
+            2.0 * (b * d - a * c),
+            2.0 * (c * d + a * b),
+            a * a + d * d - c * c - b * b,
+        ],
+    ]
+}
+
+/// Where the data starts (after the header and any extensions).
+fn data_offset(path: &Path, vox_offset: f32) -> Result<u64> {
+    if vox_offset.is_finite() && vox_offset.fract() == 0.0 && vox_offset >= HEADER_BYTES as f32 {
+        Ok(vox_offset as u64)
+    } else {
+        Err(Error::format(
+            path,
+            format!("vox_offset = {vox_offset}: must be a whole number of bytes, at least 348"),
+        ))
+    }
+}
+
+fn rescale(values: &mut [f32], slope: f32, inter: f32) {
+    if !slope.is_finite() || slope == 0.0 {
+        return;
+    }
+    let inter = if inter.is_finite() {
+        f64::from(inter)
+    } else {
+        0.0
+    };
+    let slope = f64::from(slope);
+    values
+        .par_iter_mut()
+        .for_each(|v| *v = (f64::from(*v) * slope + inter) as f32);
+}

@@ -1,0 +1,307 @@
+//! The volume model: a dense scalar grid with dims, spacing and origin in world units.
+//!
+//! Voxel (i, j, k) has its centre at `origin + (i, j, k) * spacing`; values are stored x fastest.
+//! A voxel covers half a spacing on each side of its centre, so the bounding box runs from
+//! `origin - spacing / 2` to `origin + (dims - 1/2) * spacing` (the OpenVDB/Blender convention).
+//! Between centres, samples are trilinear; in the half-voxel border they clamp to the edge.
+
+mod loaders;
+pub mod phantom;
+
+pub use loaders::{load, load_with_info, LoadOptions, NonFinite, RawSpec, ScalarType, SourceInfo};
+
+use crate::error::{Error, Result};
+use glam::Vec3;
+
+/// Largest volume the loaders allocate by default, in bytes of f32 values (8 GiB).
+pub const DEFAULT_MEMORY_BUDGET: u64 = 8 << 30;
+
+/// A dense scalar volume in world units.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Volume {
+    dims: [usize; 3],
+    spacing: Vec3,
+    origin: Vec3,
+    values: Vec<f32>,
+}
+
+impl Volume {
+    /// Builds a volume, checking that dims are positive, the value count matches, spacing is
+    /// positive and finite, and every value is finite.
+    pub fn new(dims: [usize; 3], spacing: Vec3, origin: Vec3, values: Vec<f32>) -> Result<Self> {
+        let count = voxel_count(dims)?;
+        if values.len() != count {
+            return Err(Error::Volume(format!(
+                "dims {}x{}x{} need {count} values, got {}",
+                dims[0],
+                dims[1],
+                dims[2],
+                values.len()
+            )));
+        }
+        if !spacing.is_finite() || spacing.min_element() <= 0.0 {
+            return Err(Error::Volume(format!(
+                "spacing must be positive and finite, got {spacing}"
+            )));
+        }
+        if !origin.is_finite() {
+            return Err(Error::Volume(format!("origin must be finite, got {origin}")));
+        }
+        if let Some(index) = values.iter().position(|v| !v.is_finite()) {
+            return Err(Error::Volume(format!(
+                "value {} at voxel {:?} is not finite",
+                values[index],
+                unflatten(dims, index)
+            )));
+        }
+        Ok(Self {
+            dims,
+            spacing,
+            origin,
+            values,
+        })
+    }
+
+    /// Builds a volume by evaluating `f` at every voxel centre (world coordinates).
+    pub fn from_fn(
+        dims: [usize; 3],
+        spacing: Vec3,
+        origin: Vec3,
+        f: impl Fn(Vec3) -> f32 + Sync,
+    ) -> Result<Self> {
+        use rayon::prelude::*;
+        let count = voxel_count(dims)?;
+        let mut values = vec![0.0f32; count];
+        values
+            .par_chunks_mut(dims[0])
+            .enumerate()
+            .for_each(|(row, out)| {
+                let (j, k) = (row % dims[1], row / dims[1]);
+                for (i, v) in out.iter_mut().enumerate() {
+                    *v = f(origin + Vec3::new(i as f32, j as f32, k as f32) * spacing);
+                }
+            });
+        Self::new(dims, spacing, origin, values)
+    }
+
+    pub fn dims(&self) -> [usize; 3] {
+        self.dims
+    }
+    pub fn spacing(&self) -> Vec3 {
+        self.spacing
+    }
+    pub fn origin(&self) -> Vec3 {
+        self.origin
+    }
+    /// Values, x fastest, then y, then z.
+    pub fn values(&self) -> &[f32] {
+        &self.values
+    }
+    pub fn into_values(self) -> Vec<f32> {
+        self.values
+    }
+
+    /// Moves the volume so that its bounding box is centred on `centre`.
+    pub fn with_centre(mut self, centre: Vec3) -> Self {
+        let (lo, hi) = self.bounds();
+        self.origin += centre - 0.5 * (lo + hi);
+        self
+    }
+
+    /// Value of voxel (i, j, k); the caller keeps indices in range.
+    #[inline]
+    pub fn at(&self, i: usize, j: usize, k: usize) -> f32 {
+        self.values[i + self.dims[0] * (j + self.dims[1] * k)]
+    }
+
+    /// World-space bounding box (min corner, max corner) of the voxels' cells.
+    pub fn bounds(&self) -> (Vec3, Vec3) {
+        let d = Vec3::new(
+            self.dims[0] as f32,
+            self.dims[1] as f32,
+            self.dims[2] as f32,
+        );
+        (
+            self.origin - 0.5 * self.spacing,
+            self.origin + (d - 0.5) * self.spacing,
+        )
+    }
+
+    /// Smallest and largest value.
+    pub fn value_range(&self) -> (f32, f32) {
+        self.values
+            .iter()
+            .fold((f32::INFINITY, f32::NEG_INFINITY), |(lo, hi), &v| {
+                (lo.min(v), hi.max(v))
+            })
+    }
+
+    /// Continuous index coordinates of a world position (voxel centres at integers).
+    #[inline]
+    pub fn to_index(&self, p: Vec3) -> Vec3 {
+        (p - self.origin) / self.spacing
+    }
+
+    /// Trilinear sample at a world position, clamped to the edge voxels outside the centres.
+    #[inline]
+    pub fn sample(&self, p: Vec3) -> f32 {
+        self.sample_index(self.to_index(p))
+    }
+
+    /// Trilinear sample at continuous index coordinates, clamped to the edge voxels.
+    #[inline]
+    pub fn sample_index(&self, c: Vec3) -> f32 {
+        let [nx, ny, nz] = self.dims;
+        let max = Vec3::new((nx - 1) as f32, (ny - 1) as f32, (nz - 1) as f32);
+        let c = c.clamp(Vec3::ZERO, max);
+        let base = c.floor();
+        let f = c - base;
+        let (i0, j0, k0) = (base.x as usize, base.y as usize, base.z as usize);
+        let (i1, j1, k1) = ((i0 + 1).min(nx - 1), (j0 + 1).min(ny - 1), (k0 + 1).min(nz - 1));
+        let lerp = |a: f32, b: f32, t: f32| a + (b - a) * t;
+        let c00 = lerp(self.at(i0, j0, k0), self.at(i1, j0, k0), f.x);
+        let c10 = lerp(self.at(i0, j1, k0), self.at(i1, j1, k0), f.x);
+        let c01 = lerp(self.at(i0, j0, k1), self.at(i1, j0, k1), f.x);
+        let c11 = lerp(self.at(i0, j1, k1), self.at(i1, j1, k1), f.x);
+        lerp(lerp(c00, c10, f.y), lerp(c01, c11, f.y), f.z)
+    }
+
+    /// Gradient in world units (value per world unit) by central differences of trilinear
+    /// samples one voxel spacing apart along each axis.
+    #[inline]
+    pub fn gradient(&self, p: Vec3) -> Vec3 {
+        let c = self.to_index(p);
+        let dx = self.sample_index(c + Vec3::X) - self.sample_index(c - Vec3::X);
+        let dy = self.sample_index(c + Vec3::Y) - self.sample_index(c - Vec3::Y);
+        let dz = self.sample_index(c + Vec3::Z) - self.sample_index(c - Vec3::Z);
+        Vec3::new(dx, dy, dz) / (2.0 * self.spacing)
+    }
+
+    /// Largest gradient magnitude over the voxel centres (used to normalise 2D transfer
+    /// functions and the gradient-shading threshold).
+    pub fn max_gradient_magnitude(&self) -> f32 {
+        use rayon::prelude::*;
+        let [nx, ny, nz] = self.dims;
+        (0..nz)
+            .into_par_iter()
+            .map(|k| {
+                let mut best = 0.0f32;
+                for j in 0..ny {
+                    for i in 0..nx {
+                        let c = Vec3::new(i as f32, j as f32, k as f32);
+                        let p = self.origin + c * self.spacing;
+                        best = best.max(self.gradient(p).length());
+                    }
+                }
+                best
+            })
+            .reduce(|| 0.0, f32::max)
+    }
+
+    /// Counts of values in `bins` equal-width bins over the value range.
+    pub fn histogram(&self, bins: usize) -> Vec<u64> {
+        let bins = bins.max(1);
+        let (lo, hi) = self.value_range();
+        let mut counts = vec![0u64; bins];
+        let scale = if hi > lo { bins as f32 / (hi - lo) } else { 0.0 };
+        for &v in &self.values {
+            let b = (((v - lo) * scale) as usize).min(bins - 1);
+            counts[b] += 1;
+        }
+        counts
+    }
+}
+
+/// Number of voxels for `dims`, rejecting zero dims and overflow.
+pub fn voxel_count(dims: [usize; 3]) -> Result<usize> {
+    if dims.contains(&0) {
+        return Err(Error::Volume(format!(
+            "dims must be positive, got {}x{}x{}",
+            dims[0], dims[1], dims[2]
+        )));
+    }
+    dims.iter()
+        .try_fold(1usize, |acc, &d| acc.checked_mul(d))
+        .ok_or_else(|| {
+            Error::Volume(format!(
+                "dims {}x{}x{} overflow the address space",
+                dims[0], dims[1], dims[2]
+            ))
+        })
+}
+
+/// Checks, before allocating, that a volume of `dims` fits in `budget` bytes of f32 values.
+pub fn check_budget(dims: [usize; 3], budget: u64) -> Result<usize> {
+    let count = voxel_count(dims)?;
+    let bytes = (count as u128) * 4;
+    if bytes > budget as u128 {
+        return Err(Error::Volume(format!(
+            "dims {}x{}x{} need {:.1} GiB as f32, over the memory budget of {:.1} GiB",
+            dims[0],
+            dims[1],
+            dims[2],
+            bytes as f64 / (1u64 << 30) as f64,
+            budget as f64 / (1u64 << 30) as f64
+        )));
+    }
+    Ok(count)
+}
+
+fn unflatten(dims: [usize; 3], index: usize) -> [usize; 3] {
+    [
+        index % dims[0],
+        (index / dims[0]) % dims[1],
+        index / (dims[0] * dims[1]),
+    ]
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn ramp() -> Volume {
+        // v = 2x + 3y - z, linear, so trilinear sampling and central differences are exact.
+        Volume::from_fn([5, 6, 7], Vec3::new(0.5, 1.0, 2.0), Vec3::new(-1.0, 0.0, 1.0), |p| {
+            2.0 * p.x + 3.0 * p.y - p.z
+        })
+        .unwrap()
+    }
+
+    #[test]
+    fn trilinear_reproduces_linear_fields() {
+        let v = ramp();
+        let p = Vec3::new(0.3, 2.7, 6.1);
+        assert!((v.sample(p) - (2.0 * 0.3 + 3.0 * 2.7 - 6.1)).abs() < 1e-5);
+        let g = v.gradient(p);
+        assert!((g - Vec3::new(2.0, 3.0, -1.0)).length() < 1e-4, "{g}");
+    }
+
+    #[test]
+    fn bounds_span_half_a_voxel_beyond_centres() {
+        let v = ramp();
+        let (lo, hi) = v.bounds();
+        assert_eq!(lo, Vec3::new(-1.25, -0.5, 0.0));
+        assert_eq!(hi, Vec3::new(-1.0 + 4.5 * 0.5, 5.5, 1.0 + 6.5 * 2.0));
+    }
+
+    #[test]
+    fn rejects_bad_construction() {
+        let bad = Volume::new([2, 2, 2], Vec3::ONE, Vec3::ZERO, vec![0.0; 7]);
+        assert!(bad.unwrap_err().to_string().contains("need 8 values"));
+        let zero = Volume::new([0, 2, 2], Vec3::ONE, Vec3::ZERO, vec![]);
+        assert!(zero.unwrap_err().to_string().contains("positive"));
+        let mut vals = vec![0.0; 8];
+        vals[5] = f32::NAN;
+        let nan = Volume::new([2, 2, 2], Vec3::ONE, Vec3::ZERO, vals);
+        assert!(nan.unwrap_err().to_string().contains("[1, 0, 1]"));
+        let sp = Volume::new([2, 2, 2], Vec3::new(1.0, 0.0, 1.0), Vec3::ZERO, vec![0.0; 8]);
+        assert!(sp.unwrap_err().to_string().contains("spacing"));
+    }
+
+    #[test]
+    fn budget_is_checked_before_allocating() {
+        let err = check_budget([100_000, 100_000, 100_000], DEFAULT_MEMORY_BUDGET).unwrap_err();
+        assert!(err.to_string().contains("memory budget"), "{err}");
+        assert!(check_budget([usize::MAX, 2, 2], DEFAULT_MEMORY_BUDGET).is_err());
+    }
+}

@@ -1,0 +1,1313 @@
+//! Volume loaders: the shared real volumes, round trips through every format, and bad input.
+
+use flate2::read::GzDecoder;
+use flate2::write::GzEncoder;
+use flate2::Compression;
+use glam::Vec3;
+use occlux::volume::{load, load_with_info, LoadOptions, NonFinite, RawSpec, ScalarType, Volume};
+use occlux::Error;
+use std::io::{Read, Write};
+use std::path::{Path, PathBuf};
+
+// ---------------------------------------------------------------------------------------------
+// Helpers
+
+/// Stored types and how each format spells them.
+#[derive(Clone, Copy, Debug)]
+struct Ty {
+    scalar: ScalarType,
+    nrrd: &'static str,
+    nifti: i16,
+    npy: &'static str,
+}
+
+const TYPES: [Ty; 8] = [
+    Ty {
+        scalar: ScalarType::U8,
+        nrrd: "unsigned char",
+        nifti: 2,
+        npy: "u1",
+    },
+    Ty {
+        scalar: ScalarType::I8,
+        nrrd: "signed char",
+        nifti: 256,
+        npy: "i1",
+    },
+    Ty {
+        scalar: ScalarType::U16,
+        nrrd: "ushort",
+        nifti: 512,
+        npy: "u2",
+    },
+    Ty {
+        scalar: ScalarType::I16,
+        nrrd: "short",
+        nifti: 4,
+        npy: "i2",
+    },
+    Ty {
+        scalar: ScalarType::U32,
+        nrrd: "uint",
+        nifti: 768,
+        npy: "u4",
+    },
+    Ty {
+        scalar: ScalarType::I32,
+        nrrd: "int",
+        nifti: 8,
+        npy: "i4",
+    },
+    Ty {
+        scalar: ScalarType::F32,
+        nrrd: "float",
+        nifti: 16,
+        npy: "f4",
+    },
+    Ty {
+        scalar: ScalarType::F64,
+        nrrd: "double",
+        nifti: 64,
+        npy: "f8",
+    },
+];
+
+fn ty(scalar: ScalarType) -> Ty {
+    TYPES.into_iter().find(|t| t.scalar == scalar).unwrap()
+}
+
+/// Test values that every type holds exactly (and f32 represents exactly).
+fn values_for(scalar: ScalarType, count: usize) -> Vec<f64> {
+    (0..count)
+        .map(|i| {
+            let n = ((i * 37) % 101) as f64;
+            match scalar {
+                ScalarType::U8 => n * 2.0,
+                ScalarType::I8 => n - 50.0,
+                ScalarType::U16 => n * 600.0,
+                ScalarType::I16 => n * 300.0 - 15000.0,
+                ScalarType::U32 => n * 100_000.0,
+                ScalarType::I32 => n * 100_000.0 - 5_000_000.0,
+                ScalarType::F32 | ScalarType::F64 => n * 0.25 - 12.5,
+            }
+        })
+        .collect()
+}
+
+/// Packs values in a type and byte order, independently of the library.
+fn encode(scalar: ScalarType, values: &[f64], big_endian: bool) -> Vec<u8> {
+    let mut out = Vec::new();
+    for &v in values {
+        let mut bytes = match scalar {
+            ScalarType::U8 => vec![v as u8],
+            ScalarType::I8 => (v as i8).to_le_bytes().to_vec(),
+            ScalarType::U16 => (v as u16).to_le_bytes().to_vec(),
+            ScalarType::I16 => (v as i16).to_le_bytes().to_vec(),
+            ScalarType::U32 => (v as u32).to_le_bytes().to_vec(),
+            ScalarType::I32 => (v as i32).to_le_bytes().to_vec(),
+            ScalarType::F32 => (v as f32).to_le_bytes().to_vec(),
+            ScalarType::F64 => v.to_le_bytes().to_vec(),
+        };
+        if big_endian {
+            bytes.reverse();
+        }
+        out.extend(bytes);
+    }
+    out
+}
+
+fn gzip(bytes: &[u8]) -> Vec<u8> {
+    let mut encoder = GzEncoder::new(Vec::new(), Compression::fast());
+    encoder.write_all(bytes).unwrap();
+    encoder.finish().unwrap()
+}
+
+/// Writes a NRRD with an attached header: the magic, a comment, `fields`, a blank line, `data`.
+fn write_nrrd(path: &Path, fields: &[(&str, &str)], data: &[u8]) {
+    let mut file = b"NRRD0004\n# written by tests/loaders.rs\n".to_vec();
+    for (name, value) in fields {
+        file.extend(format!("{name}: {value}\n").bytes());
+    }
+    file.extend(b"key:=value\n\n");
+    file.extend(data);
+    std::fs::write(path, file).unwrap();
+}
+
+fn opts() -> LoadOptions {
+    LoadOptions::default()
+}
+
+/// Loads a file that must fail and returns the message, checking that it names the file.
+fn failure(path: &Path, opts: &LoadOptions) -> String {
+    let message = match load(path, opts) {
+        Ok(v) => panic!("{} loaded ({:?}) but should fail", path.display(), v.dims()),
+        Err(e) => e.to_string(),
+    };
+    assert!(
+        message.contains(&path.display().to_string()),
+        "message does not name {}: {message}",
+        path.display()
+    );
+    message
+}
+
+fn assert_mentions(message: &str, parts: &[&str]) {
+    for part in parts {
+        assert!(message.contains(part), "expected {part:?} in: {message}");
+    }
+}
+
+fn as_f32(values: &[f64]) -> Vec<f32> {
+    values.iter().map(|&v| v as f32).collect()
+}
+
+/// Deterministic noise bytes.
+fn garbage(count: usize) -> Vec<u8> {
+    let mut state = 0x2545_f491_4f6c_dd1du64;
+    (0..count)
+        .map(|_| {
+            state = state
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (state >> 56) as u8
+        })
+        .collect()
+}
+
+// ---------------------------------------------------------------------------------------------
+// The shared real volumes
+
+fn scivis(name: &str) -> PathBuf {
+    let dir = Path::new(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../shared/data/scivis/"
+    ));
+    assert!(
+        dir.is_dir(),
+        "{} is missing: these tests need ../shared (the shared data folder beside the checkout; CI has it)",
+        dir.display()
+    );
+    dir.join(format!("{name}.nrrd"))
+}
+
+/// Decodes a shared volume without the library: the gzip payload after the header's blank
+/// line, values little endian, x fastest.
+fn independent_decode(path: &Path, scalar: ScalarType) -> Vec<f32> {
+    let file = std::fs::read(path).unwrap();
+    let start = file.windows(2).position(|w| w == b"\n\n").unwrap() + 2;
+    let mut payload = Vec::new();
+    GzDecoder::new(&file[start..])
+        .read_to_end(&mut payload)
+        .unwrap();
+    match scalar {
+        ScalarType::U8 => payload.iter().map(|&b| b as f32).collect(),
+        ScalarType::U16 => payload
+            .chunks_exact(2)
+            .map(|c| u16::from_le_bytes([c[0], c[1]]) as f32)
+            .collect(),
+        ScalarType::F32 => payload
+            .chunks_exact(4)
+            .map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]]))
+            .collect(),
+        other => panic!("no shared volume is {other:?}"),
+    }
+}
+
+fn check_shared(name: &str, dims: [usize; 3], scalar: ScalarType, spacing: Vec3) {
+    let path = scivis(name);
+    let (volume, info) = load_with_info(&path, &opts()).unwrap();
+    assert_eq!(volume.dims(), dims, "{name}");
+    assert_eq!(info.format, "NRRD");
+    assert_eq!(info.scalar, scalar.name(), "{name}");
+    assert_eq!(volume.spacing(), spacing, "{name}");
+    assert_eq!(volume.origin(), Vec3::ZERO, "{name}");
+    let expected = independent_decode(&path, scalar);
+    assert_eq!(expected.len(), dims.iter().product::<usize>(), "{name}");
+    let values = volume.values();
+    let n = values.len();
+    for index in [0, n / 7, n / 3, n / 2, 2 * n / 3, n - 1] {
+        assert_eq!(values[index], expected[index], "{name} voxel {index}");
+    }
+    if let Some(index) = (0..n).find(|&i| values[i] != expected[i]) {
+        panic!(
+            "{name}: voxel {index} is {} but the file holds {}",
+            values[index], expected[index]
+        );
+    }
+    let (lo, hi) = volume.value_range();
+    assert!(hi > lo, "{name} is constant");
+}
+
+#[test]
+fn shared_engine() {
+    check_shared("engine", [256, 256, 128], ScalarType::U8, Vec3::ONE);
+}
+
+#[test]
+fn shared_tooth() {
+    check_shared("tooth", [103, 94, 161], ScalarType::U8, Vec3::ONE);
+}
+
+#[test]
+fn shared_small_simulations() {
+    for (name, dims) in [
+        ("neghip", [64, 64, 64]),
+        ("fuel", [64, 64, 64]),
+        ("hydrogen_atom", [128, 128, 128]),
+        ("marschner_lobb", [41, 41, 41]),
+        ("nucleon", [41, 41, 41]),
+        ("silicium", [98, 34, 34]),
+    ] {
+        check_shared(name, dims, ScalarType::U8, Vec3::ONE);
+    }
+}
+
+#[test]
+fn shared_stag_beetle_is_uint16() {
+    check_shared(
+        "stag_beetle",
+        [416, 208, 124],
+        ScalarType::U16,
+        Vec3::new(2.0, 4.0, 3.983871),
+    );
+}
+
+#[test]
+fn shared_hcci_oh_is_float() {
+    check_shared(
+        "hcci_oh",
+        [187, 187, 187],
+        ScalarType::F32,
+        Vec3::splat(2.994652),
+    );
+}
+
+// ---------------------------------------------------------------------------------------------
+// Round trips
+
+#[test]
+fn nrrd_round_trips_every_type_byte_order_and_encoding() {
+    let dir = tempfile::tempdir().unwrap();
+    let dims = [3, 4, 5];
+    for t in TYPES {
+        let values = values_for(t.scalar, 60);
+        for big_endian in [false, true] {
+            for encoding in ["raw", "gzip"] {
+                let path = dir
+                    .path()
+                    .join(format!("{}_{big_endian}_{encoding}.nrrd", t.scalar.name()));
+                let packed = encode(t.scalar, &values, big_endian);
+                let data = if encoding == "gzip" {
+                    gzip(&packed)
+                } else {
+                    packed
+                };
+                write_nrrd(
+                    &path,
+                    &[
+                        ("type", t.nrrd),
+                        ("dimension", "3"),
+                        ("sizes", "3 4 5"),
+                        ("spacings", "0.5 2 1.25"),
+                        ("endian", if big_endian { "big" } else { "little" }),
+                        ("encoding", encoding),
+                    ],
+                    &data,
+                );
+                let (volume, info) = load_with_info(&path, &opts()).unwrap();
+                assert_eq!(info.scalar, t.scalar.name());
+                assert_eq!(volume.dims(), dims);
+                assert_eq!(volume.spacing(), Vec3::new(0.5, 2.0, 1.25));
+                assert_eq!(volume.origin(), Vec3::ZERO);
+                assert_eq!(volume.values(), as_f32(&values), "{}", path.display());
+            }
+        }
+    }
+}
+
+#[test]
+fn nrrd_space_directions_set_spacing_origin_and_flip_negative_axes() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("directions.nrrd");
+    let values = values_for(ScalarType::F32, 24);
+    write_nrrd(
+        &path,
+        &[
+            ("type", "float"),
+            ("dimension", "3"),
+            ("space", "right-anterior-superior"),
+            ("sizes", "2 3 4"),
+            ("space directions", "(0.5,0,0) (0, 2, 0) (0,0,-1.5)"),
+            ("space origin", "(10,20,30)"),
+            ("endian", "little"),
+            ("encoding", "raw"),
+        ],
+        &encode(ScalarType::F32, &values, false),
+    );
+    let volume = load(&path, &opts()).unwrap();
+    assert_eq!(volume.spacing(), Vec3::new(0.5, 2.0, 1.5));
+    // Stored slice k sits at z = 30 - 1.5 k, so the lowest one (k = 3, z = 25.5) comes first.
+    assert_eq!(volume.origin(), Vec3::new(10.0, 20.0, 25.5));
+    for k in 0..4 {
+        for j in 0..3 {
+            for i in 0..2 {
+                let stored = values[i + 2 * (j + 3 * (3 - k))] as f32;
+                assert_eq!(volume.at(i, j, k), stored, "voxel {i} {j} {k}");
+                // Same world position as the file says: origin + index * step.
+                let world =
+                    volume.origin() + Vec3::new(i as f32, j as f32, k as f32) * volume.spacing();
+                let file_world = Vec3::new(
+                    10.0 + 0.5 * i as f32,
+                    20.0 + 2.0 * j as f32,
+                    30.0 - 1.5 * (3 - k) as f32,
+                );
+                assert!((world - file_world).length() < 1e-5);
+            }
+        }
+    }
+}
+
+#[test]
+fn nrrd_rotated_directions_keep_lengths() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("rotated.nrrd");
+    write_nrrd(
+        &path,
+        &[
+            ("type", "uchar"),
+            ("dimension", "3"),
+            ("sizes", "2 2 2"),
+            ("space directions", "(0.6,0.8,0) (-1.6,1.2,0) (0,0,3)"),
+            ("encoding", "raw"),
+        ],
+        &[1, 2, 3, 4, 5, 6, 7, 8],
+    );
+    let volume = load(&path, &opts()).unwrap();
+    assert!((volume.spacing() - Vec3::new(1.0, 2.0, 3.0)).length() < 1e-6);
+    assert_eq!(volume.values(), [1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0, 8.0]);
+}
+
+#[test]
+fn nrrd_four_d_with_a_size_one_axis() {
+    let dir = tempfile::tempdir().unwrap();
+    let values = values_for(ScalarType::U16, 24);
+    let data = encode(ScalarType::U16, &values, false);
+    let cases: [(&str, &[(&str, &str)]); 2] = [
+        (
+            "leading",
+            &[("sizes", "1 2 3 4"), ("spacings", "nan 1 2 3")],
+        ),
+        (
+            "trailing",
+            &[
+                ("sizes", "2 3 4 1"),
+                ("space directions", "(1,0,0) (0,2,0) (0,0,3) none"),
+            ],
+        ),
+    ];
+    for (name, extra) in cases {
+        let path = dir.path().join(format!("{name}.nrrd"));
+        let mut fields = vec![
+            ("type", "uint16"),
+            ("dimension", "4"),
+            ("endian", "little"),
+            ("encoding", "raw"),
+        ];
+        fields.extend_from_slice(extra);
+        write_nrrd(&path, &fields, &data);
+        let volume = load(&path, &opts()).unwrap();
+        assert_eq!(volume.dims(), [2, 3, 4], "{name}");
+        assert_eq!(volume.spacing(), Vec3::new(1.0, 2.0, 3.0), "{name}");
+        assert_eq!(volume.values(), as_f32(&values), "{name}");
+    }
+}
+
+#[test]
+fn detached_nhdr_reads_its_data_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let values = values_for(ScalarType::I16, 24);
+    let packed = encode(ScalarType::I16, &values, true);
+    // Raw data after 3 junk bytes, and gzip data in a second file.
+    let mut raw = b"abc".to_vec();
+    raw.extend(&packed);
+    std::fs::write(dir.path().join("data.raw"), raw).unwrap();
+    std::fs::write(dir.path().join("data.raw.gz"), gzip(&packed)).unwrap();
+    for (name, data_file, encoding, skip) in [
+        ("raw.nhdr", "data.raw", "raw", "3"),
+        ("tail.nhdr", "data.raw", "raw", "-1"),
+        ("gz.nhdr", "data.raw.gz", "gzip", "0"),
+    ] {
+        let header = format!(
+            "NRRD0005\ntype: short\ndimension: 3\nsizes: 4 3 2\nendian: big\nencoding: {encoding}\n\
+             byte skip: {skip}\ndata file: {data_file}\n"
+        );
+        let path = dir.path().join(name);
+        std::fs::write(&path, header).unwrap();
+        let volume = load(&path, &opts()).unwrap();
+        assert_eq!(volume.dims(), [4, 3, 2], "{name}");
+        assert_eq!(volume.values(), as_f32(&values), "{name}");
+    }
+}
+
+/// A NIfTI-1 header, written by hand (348 bytes, then 4 bytes of extension flags).
+struct Nifti {
+    dim: [i16; 8],
+    datatype: i16,
+    bitpix: i16,
+    pixdim: [f32; 8],
+    slope: f32,
+    inter: f32,
+    qform_code: i16,
+    sform_code: i16,
+    quatern: [f32; 6],
+    srow: [[f32; 4]; 3],
+    magic: [u8; 4],
+    big_endian: bool,
+}
+
+impl Nifti {
+    fn new(dims: [i16; 3], t: Ty) -> Self {
+        Self {
+            dim: [3, dims[0], dims[1], dims[2], 1, 1, 1, 1],
+            datatype: t.nifti,
+            bitpix: 8 * t.scalar.size() as i16,
+            pixdim: [1.0; 8],
+            slope: 0.0,
+            inter: 0.0,
+            qform_code: 0,
+            sform_code: 0,
+            quatern: [0.0; 6],
+            srow: [[0.0; 4]; 3],
+            magic: *b"n+1\0",
+            big_endian: false,
+        }
+    }
+
+    fn bytes(&self, data: &[u8]) -> Vec<u8> {
+        let mut h = vec![0u8; 352];
+        let be = self.big_endian;
+        let mut put = |offset: usize, bytes: &[u8]| {
+            let mut bytes = bytes.to_vec();
+            if be {
+                bytes.reverse();
+            }
+            h[offset..offset + bytes.len()].copy_from_slice(&bytes);
+        };
+        put(0, &348i32.to_le_bytes());
+        for (a, d) in self.dim.iter().enumerate() {
+            put(40 + 2 * a, &d.to_le_bytes());
+        }
+        put(70, &self.datatype.to_le_bytes());
+        put(72, &self.bitpix.to_le_bytes());
+        for (a, p) in self.pixdim.iter().enumerate() {
+            put(76 + 4 * a, &p.to_le_bytes());
+        }
+        put(108, &352f32.to_le_bytes());
+        put(112, &self.slope.to_le_bytes());
+        put(116, &self.inter.to_le_bytes());
+        put(252, &self.qform_code.to_le_bytes());
+        put(254, &self.sform_code.to_le_bytes());
+        for (a, q) in self.quatern.iter().enumerate() {
+            put(256 + 4 * a, &q.to_le_bytes());
+        }
+        for (r, row) in self.srow.iter().enumerate() {
+            for (c, v) in row.iter().enumerate() {
+                put(280 + 16 * r + 4 * c, &v.to_le_bytes());
+            }
+        }
+        h[344..348].copy_from_slice(&self.magic);
+        h.extend(data);
+        h
+    }
+}
+
+#[test]
+fn nifti_sform_scaling_and_spacing() {
+    let dir = tempfile::tempdir().unwrap();
+    let t = ty(ScalarType::I16);
+    let values = values_for(t.scalar, 24);
+    let mut header = Nifti::new([4, 3, 2], t);
+    header.pixdim = [1.0, 0.5, 0.75, 2.0, 1.0, 1.0, 1.0, 1.0];
+    header.slope = 2.0;
+    header.inter = -1.0;
+    header.sform_code = 1;
+    header.srow = [
+        [0.5, 0.0, 0.0, 1.0],
+        [0.0, 0.75, 0.0, 2.0],
+        [0.0, 0.0, 2.0, 3.0],
+    ];
+    let path = dir.path().join("sform.nii");
+    std::fs::write(&path, header.bytes(&encode(t.scalar, &values, false))).unwrap();
+    let (volume, info) = load_with_info(&path, &opts()).unwrap();
+    assert_eq!(info.format, "NIfTI-1");
+    assert_eq!(info.scalar, "int16");
+    assert_eq!(volume.dims(), [4, 3, 2]);
+    assert_eq!(volume.spacing(), Vec3::new(0.5, 0.75, 2.0));
+    assert_eq!(volume.origin(), Vec3::new(1.0, 2.0, 3.0));
+    let scaled: Vec<f32> = values.iter().map(|v| (v * 2.0 - 1.0) as f32).collect();
+    assert_eq!(volume.values(), scaled);
+}
+
+#[test]
+fn nifti_gz_big_endian_qform_with_qfac_flips_z() {
+    let dir = tempfile::tempdir().unwrap();
+    let t = ty(ScalarType::F32);
+    let values = values_for(t.scalar, 24);
+    let mut header = Nifti::new([2, 3, 4], t);
+    header.big_endian = true;
+    header.pixdim = [-1.0, 1.5, 1.0, 0.5, 1.0, 1.0, 1.0, 1.0];
+    header.qform_code = 1;
+    header.quatern = [0.0, 0.0, 0.0, 5.0, 6.0, 7.0];
+    let path = dir.path().join("qform.nii.gz");
+    std::fs::write(&path, gzip(&header.bytes(&encode(t.scalar, &values, true)))).unwrap();
+    let volume = load(&path, &opts()).unwrap();
+    assert_eq!(volume.spacing(), Vec3::new(1.5, 1.0, 0.5));
+    // qfac = -1: stored slice k sits at z = 7 - 0.5 k; the last (z = 5.5) comes first.
+    assert_eq!(volume.origin(), Vec3::new(5.0, 6.0, 5.5));
+    for k in 0..4 {
+        for j in 0..3 {
+            for i in 0..2 {
+                assert_eq!(volume.at(i, j, k), values[i + 2 * (j + 3 * (3 - k))] as f32);
+            }
+        }
+    }
+}
+
+#[test]
+fn nifti_negative_sform_x_flips_x_and_unscaled_types_load() {
+    let dir = tempfile::tempdir().unwrap();
+    for t in TYPES {
+        let values = values_for(t.scalar, 24);
+        let mut header = Nifti::new([4, 3, 2], t);
+        header.dim[0] = 4; // 4-D with one time point
+        header.slope = f32::NAN; // nibabel's "no scaling"
+        header.sform_code = 2;
+        header.srow = [
+            [-2.0, 0.0, 0.0, 10.0],
+            [0.0, 1.0, 0.0, 0.0],
+            [0.0, 0.0, 1.0, 0.0],
+        ];
+        let path = dir.path().join(format!("{}.nii", t.scalar.name()));
+        std::fs::write(&path, header.bytes(&encode(t.scalar, &values, false))).unwrap();
+        let (volume, info) = load_with_info(&path, &opts()).unwrap();
+        assert_eq!(info.scalar, t.scalar.name());
+        assert_eq!(volume.spacing(), Vec3::new(2.0, 1.0, 1.0));
+        assert_eq!(volume.origin(), Vec3::new(4.0, 0.0, 0.0));
+        for k in 0..2 {
+            for j in 0..3 {
+                for i in 0..4 {
+                    assert_eq!(
+                        volume.at(i, j, k),
+                        values[(3 - i) + 4 * (j + 3 * k)] as f32,
+                        "{t:?}"
+                    );
+                }
+            }
+        }
+    }
+}
+
+#[test]
+fn nifti_without_transform_uses_pixdim() {
+    let dir = tempfile::tempdir().unwrap();
+    let t = ty(ScalarType::U8);
+    let values = values_for(t.scalar, 8);
+    let mut header = Nifti::new([2, 2, 2], t);
+    header.pixdim = [1.0, 0.25, 0.5, 4.0, 1.0, 1.0, 1.0, 1.0];
+    let path = dir.path().join("plain.nii");
+    std::fs::write(&path, header.bytes(&encode(t.scalar, &values, false))).unwrap();
+    let volume = load(&path, &opts()).unwrap();
+    assert_eq!(volume.spacing(), Vec3::new(0.25, 0.5, 4.0));
+    assert_eq!(volume.origin(), Vec3::ZERO);
+    assert_eq!(volume.values(), as_f32(&values));
+}
+
+#[test]
+fn raw_round_trips_with_header_bytes_and_byte_order() {
+    let dir = tempfile::tempdir().unwrap();
+    for (scalar, big_endian, header_bytes) in [
+        (ScalarType::U16, true, 7u64),
+        (ScalarType::F64, false, 0),
+        (ScalarType::I8, false, 1),
+    ] {
+        let values = values_for(scalar, 30);
+        let mut file = vec![0xAB; header_bytes as usize];
+        file.extend(encode(scalar, &values, big_endian));
+        let path = dir.path().join(format!("{}.raw", scalar.name()));
+        std::fs::write(&path, file).unwrap();
+        let options = LoadOptions {
+            raw: Some(RawSpec {
+                dims: [5, 3, 2],
+                scalar,
+                spacing: Vec3::new(0.1, 0.2, 0.3),
+                origin: Vec3::new(-1.0, 0.0, 1.0),
+                big_endian,
+                header_bytes,
+            }),
+            ..opts()
+        };
+        let (volume, info) = load_with_info(&path, &options).unwrap();
+        assert_eq!(info.format, "raw");
+        assert_eq!(volume.dims(), [5, 3, 2]);
+        assert_eq!(volume.spacing(), Vec3::new(0.1, 0.2, 0.3));
+        assert_eq!(volume.origin(), Vec3::new(-1.0, 0.0, 1.0));
+        assert_eq!(volume.values(), as_f32(&values));
+    }
+}
+
+/// Writes a .npy file the way numpy does: header padded with spaces to a multiple of 64 bytes.
+fn write_npy(path: &Path, version: u8, descr: &str, fortran: bool, shape: &[usize], data: &[u8]) {
+    let shape: Vec<String> = shape.iter().map(|s| s.to_string()).collect();
+    let fortran = if fortran { "True" } else { "False" };
+    let mut dict = format!(
+        "{{'descr': '{descr}', 'fortran_order': {fortran}, 'shape': ({}), }}",
+        shape.join(", ")
+    );
+    let prelude = if version == 1 { 10 } else { 12 };
+    while (prelude + dict.len() + 1) % 64 != 0 {
+        dict.push(' ');
+    }
+    dict.push('\n');
+    let mut file = b"\x93NUMPY".to_vec();
+    file.extend([version, 0]);
+    if version == 1 {
+        file.extend((dict.len() as u16).to_le_bytes());
+    } else {
+        file.extend((dict.len() as u32).to_le_bytes());
+    }
+    file.extend(dict.bytes());
+    file.extend(data);
+    std::fs::write(path, file).unwrap();
+}
+
+#[test]
+fn npy_c_order_maps_last_axis_to_x() {
+    let dir = tempfile::tempdir().unwrap();
+    let (nx, ny, nz) = (4, 3, 2);
+    // arr[z][y][x] = 100 z + 10 y + x, saved in C order with shape (nz, ny, nx).
+    let values: Vec<f64> = (0..nz)
+        .flat_map(|z| {
+            (0..ny).flat_map(move |y| (0..nx).map(move |x| (100 * z + 10 * y + x) as f64))
+        })
+        .collect();
+    for (version, scalar, big_endian) in [
+        (1, ScalarType::F32, false),
+        (2, ScalarType::F64, true),
+        (1, ScalarType::I16, true),
+        (3, ScalarType::U32, false),
+    ] {
+        let descr = format!("{}{}", if big_endian { '>' } else { '<' }, ty(scalar).npy);
+        let path = dir.path().join(format!("c{version}{}.npy", scalar.name()));
+        write_npy(
+            &path,
+            version,
+            &descr,
+            false,
+            &[nz, ny, nx],
+            &encode(scalar, &values, big_endian),
+        );
+        let (volume, info) = load_with_info(&path, &opts()).unwrap();
+        assert_eq!(info.scalar, scalar.name());
+        assert_eq!(volume.dims(), [nx, ny, nz]);
+        assert_eq!(volume.spacing(), Vec3::ONE);
+        for z in 0..nz {
+            for y in 0..ny {
+                for x in 0..nx {
+                    assert_eq!(volume.at(x, y, z), (100 * z + 10 * y + x) as f32, "{descr}");
+                }
+            }
+        }
+    }
+}
+
+#[test]
+fn npy_fortran_order_maps_first_axis_to_x() {
+    let dir = tempfile::tempdir().unwrap();
+    let (nx, ny, nz) = (4, 3, 2);
+    // Fortran order: the first axis is fastest, so the bytes are x fastest with shape (nx, ny, nz).
+    let values = values_for(ScalarType::U8, nx * ny * nz);
+    let path = dir.path().join("fortran.npy");
+    write_npy(
+        &path,
+        1,
+        "|u1",
+        true,
+        &[nx, ny, nz],
+        &encode(ScalarType::U8, &values, false),
+    );
+    let volume = load(&path, &opts()).unwrap();
+    assert_eq!(volume.dims(), [nx, ny, nz]);
+    assert_eq!(volume.values(), as_f32(&values));
+}
+
+// ---------------------------------------------------------------------------------------------
+// Bad input: each names the file and the problem, and none panics.
+
+fn small_nrrd(dir: &Path, name: &str, fields: &[(&str, &str)], data: &[u8]) -> PathBuf {
+    let path = dir.join(name);
+    write_nrrd(&path, fields, data);
+    path
+}
+
+const U16_4X4X4: [(&str, &str); 5] = [
+    ("type", "uint16"),
+    ("dimension", "3"),
+    ("sizes", "4 4 4"),
+    ("endian", "little"),
+    ("encoding", "raw"),
+];
+
+/// NRRD header fields, in order.
+type Fields = Vec<(&'static str, &'static str)>;
+
+/// Replaces (or adds) a field of a header.
+fn with(
+    fields: &[(&'static str, &'static str)],
+    name: &'static str,
+    value: &'static str,
+) -> Fields {
+    let mut out: Vec<_> = fields.iter().copied().filter(|(n, _)| *n != name).collect();
+    out.push((name, value));
+    out
+}
+
+#[test]
+fn truncated_payloads_state_expected_and_found_bytes() {
+    let dir = tempfile::tempdir().unwrap();
+    let full = encode(ScalarType::U16, &values_for(ScalarType::U16, 64), false);
+
+    let raw = small_nrrd(dir.path(), "short.nrrd", &U16_4X4X4, &full[..100]);
+    assert_mentions(
+        &failure(&raw, &opts()),
+        &[
+            "raw data truncated",
+            "4x4x4 uint16",
+            "128 bytes",
+            "found 100",
+        ],
+    );
+
+    let compressed = gzip(&full);
+    let gz_fields = with(&U16_4X4X4, "encoding", "gzip");
+    let cut = small_nrrd(
+        dir.path(),
+        "cut.nrrd",
+        &gz_fields,
+        &compressed[..compressed.len() / 2],
+    );
+    assert_mentions(
+        &failure(&cut, &opts()),
+        &["gzip data", "truncated", "128 bytes"],
+    );
+
+    // A complete gzip stream that holds less than the header claims.
+    let less = small_nrrd(dir.path(), "less.nrrd", &gz_fields, &gzip(&full[..64]));
+    assert_mentions(
+        &failure(&less, &opts()),
+        &["gzip data truncated", "need 128 bytes, found 64"],
+    );
+
+    let mut long = full.clone();
+    long.extend([0, 0]);
+    let more = small_nrrd(dir.path(), "more.nrrd", &U16_4X4X4, &long);
+    assert_mentions(
+        &failure(&more, &opts()),
+        &["longer than expected", "128 bytes"],
+    );
+
+    let raw_file = dir.path().join("short.raw");
+    std::fs::write(&raw_file, &full[..100]).unwrap();
+    let spec = RawSpec {
+        dims: [4, 4, 4],
+        scalar: ScalarType::U16,
+        spacing: Vec3::ONE,
+        origin: Vec3::ZERO,
+        big_endian: false,
+        header_bytes: 7,
+    };
+    let options = LoadOptions {
+        raw: Some(spec),
+        ..opts()
+    };
+    assert_mentions(
+        &failure(&raw_file, &options),
+        &["file is 100 bytes", "need 135"],
+    );
+}
+
+#[test]
+fn bad_nrrd_fields_are_named() {
+    let dir = tempfile::tempdir().unwrap();
+    let data = vec![0u8; 128];
+    let cases: Vec<(&str, Fields, &[&str])> = vec![
+        (
+            "complex",
+            with(&U16_4X4X4, "type", "complex"),
+            &["type: 'complex' is not supported", "uint8"],
+        ),
+        (
+            "int64",
+            with(&U16_4X4X4, "type", "long long"),
+            &["type: 'long long' is not supported"],
+        ),
+        (
+            "notype",
+            U16_4X4X4
+                .iter()
+                .copied()
+                .filter(|f| f.0 != "type")
+                .collect(),
+            &["missing required field 'type'"],
+        ),
+        (
+            "dim2",
+            with(&with(&U16_4X4X4, "dimension", "2"), "sizes", "8 8"),
+            &["dimension: only 3-D", "got 2"],
+        ),
+        (
+            "dim4",
+            with(&with(&U16_4X4X4, "dimension", "4"), "sizes", "2 2 4 4"),
+            &["4-D array", "size 1"],
+        ),
+        (
+            "zero",
+            with(&U16_4X4X4, "sizes", "4 0 4"),
+            &["sizes: each size must be a positive integer, got '0'"],
+        ),
+        (
+            "negative",
+            with(&U16_4X4X4, "sizes", "4 4 -4"),
+            &["sizes", "got '-4'"],
+        ),
+        (
+            "count",
+            with(&U16_4X4X4, "sizes", "4 4"),
+            &["sizes", "2 values for dimension 3"],
+        ),
+        (
+            "spacing0",
+            with(&U16_4X4X4, "spacings", "1 0 1"),
+            &["spacings: axis 1", "positive and finite, got 0"],
+        ),
+        (
+            "spacingneg",
+            with(&U16_4X4X4, "spacings", "-1 1 1"),
+            &["spacings: axis 0", "got -1"],
+        ),
+        (
+            "spacingnan",
+            with(&U16_4X4X4, "spacings", "1 1 nan"),
+            &["spacings: axis 2", "got NaN"],
+        ),
+        (
+            "spacingtext",
+            with(&U16_4X4X4, "spacings", "1 one 1"),
+            &["spacings: expected numbers"],
+        ),
+        (
+            "direction0",
+            with(&U16_4X4X4, "space directions", "(1,0,0) (0,1,0) (0,0,0)"),
+            &["space directions: axis 2"],
+        ),
+        (
+            "directionnone",
+            with(&U16_4X4X4, "space directions", "(1,0,0) none (0,0,1)"),
+            &["space directions: axis 1 is 'none'"],
+        ),
+        (
+            "origin",
+            with(&U16_4X4X4, "space origin", "(1,2)"),
+            &["space origin: expected a vector"],
+        ),
+        (
+            "endian",
+            U16_4X4X4
+                .iter()
+                .copied()
+                .filter(|f| f.0 != "endian")
+                .collect(),
+            &["endian: missing", "uint16"],
+        ),
+        (
+            "encoding",
+            with(&U16_4X4X4, "encoding", "bzip2"),
+            &["encoding: 'bzip2' is not supported"],
+        ),
+        (
+            "skip",
+            with(&U16_4X4X4, "byte skip", "500"),
+            &["byte skip", "ends after"],
+        ),
+    ];
+    for (name, fields, parts) in cases {
+        let path = small_nrrd(dir.path(), &format!("{name}.nrrd"), &fields, &data);
+        assert_mentions(&failure(&path, &opts()), parts);
+    }
+}
+
+#[test]
+fn non_finite_values_are_rejected_or_replaced() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut values = values_for(ScalarType::F32, 24);
+    values[1 + 2 * (2 + 3 * 3)] = f64::NAN; // voxel (1, 2, 3) of 2x3x4
+    values[5] = f64::INFINITY; // voxel (1, 2, 0)
+    let data = encode(ScalarType::F32, &values, false);
+    let fields = [
+        ("type", "float"),
+        ("dimension", "3"),
+        ("sizes", "2 3 4"),
+        ("endian", "little"),
+        ("encoding", "raw"),
+    ];
+    let path = small_nrrd(dir.path(), "nan.nrrd", &fields, &data);
+    assert_mentions(
+        &failure(&path, &opts()),
+        &["voxel [1, 2, 0]", "inf", "non-finite"],
+    );
+
+    let npy = dir.path().join("nan.npy");
+    write_npy(&npy, 1, "<f4", false, &[4, 3, 2], &data);
+    assert_mentions(&failure(&npy, &opts()), &["voxel [1, 2, 0]", "non-finite"]);
+
+    let replaced = LoadOptions {
+        non_finite: NonFinite::Replace(0.5),
+        ..opts()
+    };
+    let volume = load(&path, &replaced).unwrap();
+    assert_eq!(volume.at(1, 2, 3), 0.5);
+    assert_eq!(volume.at(1, 2, 0), 0.5);
+    assert_eq!(volume.at(0, 0, 0), values[0] as f32);
+    assert_eq!(
+        volume.values().iter().filter(|&&v| v == 0.5).count(),
+        2 + values.iter().filter(|&&v| v == 0.5).count()
+    );
+}
+
+#[test]
+fn absurd_sizes_fail_on_the_budget_before_reading() {
+    let dir = tempfile::tempdir().unwrap();
+    // Garbage in place of gzip data: reading it would fail differently.
+    for encoding in ["raw", "gzip"] {
+        let fields = [
+            ("type", "uchar"),
+            ("dimension", "3"),
+            ("sizes", "100000 100000 100000"),
+            ("encoding", encoding),
+        ];
+        let path = small_nrrd(
+            dir.path(),
+            &format!("huge_{encoding}.nrrd"),
+            &fields,
+            &garbage(16),
+        );
+        let started = std::time::Instant::now();
+        assert_mentions(
+            &failure(&path, &opts()),
+            &["100000x100000x100000", "memory budget"],
+        );
+        assert!(started.elapsed().as_secs_f32() < 1.0);
+    }
+    let npy = dir.path().join("huge.npy");
+    write_npy(
+        &npy,
+        1,
+        "<f4",
+        false,
+        &[100_000, 100_000, 100_000],
+        &[0; 16],
+    );
+    assert_mentions(&failure(&npy, &opts()), &["memory budget"]);
+
+    let nii = dir.path().join("huge.nii");
+    std::fs::write(
+        &nii,
+        Nifti::new([30000, 30000, 30000], ty(ScalarType::U8)).bytes(&[0; 16]),
+    )
+    .unwrap();
+    assert_mentions(&failure(&nii, &opts()), &["memory budget"]);
+
+    let raw = dir.path().join("huge.raw");
+    std::fs::write(&raw, [0u8; 16]).unwrap();
+    let spec = RawSpec {
+        dims: [100_000, 100_000, 100_000],
+        scalar: ScalarType::U8,
+        spacing: Vec3::ONE,
+        origin: Vec3::ZERO,
+        big_endian: false,
+        header_bytes: 0,
+    };
+    assert_mentions(
+        &failure(
+            &raw,
+            &LoadOptions {
+                raw: Some(spec),
+                ..opts()
+            },
+        ),
+        &["memory budget"],
+    );
+
+    // A small budget applies to small files too.
+    let fields = [
+        ("type", "uchar"),
+        ("dimension", "3"),
+        ("sizes", "4 4 4"),
+        ("encoding", "raw"),
+    ];
+    let path = small_nrrd(dir.path(), "small.nrrd", &fields, &[0; 64]);
+    let tight = LoadOptions {
+        memory_budget: 100,
+        ..opts()
+    };
+    assert_mentions(&failure(&path, &tight), &["memory budget"]);
+    assert!(load(
+        &path,
+        &LoadOptions {
+            memory_budget: 256,
+            ..opts()
+        }
+    )
+    .is_ok());
+}
+
+#[test]
+fn empty_garbage_and_wrong_magic_files() {
+    let dir = tempfile::tempdir().unwrap();
+    let raw_spec = RawSpec {
+        dims: [2, 2, 2],
+        scalar: ScalarType::U8,
+        spacing: Vec3::ONE,
+        origin: Vec3::ZERO,
+        big_endian: false,
+        header_bytes: 0,
+    };
+    let raw_opts = LoadOptions {
+        raw: Some(raw_spec),
+        ..opts()
+    };
+    let cases: Vec<(&str, Vec<u8>, &[&str])> = vec![
+        ("empty.nrrd", vec![], &["file is empty", "NRRD"]),
+        ("empty.nhdr", vec![], &["file is empty"]),
+        (
+            "empty.nii",
+            vec![],
+            &["NIfTI-1 header", "empty or truncated"],
+        ),
+        ("empty.nii.gz", vec![], &["NIfTI-1 header"]),
+        ("empty.npy", vec![], &["too short for a .npy header"]),
+        ("empty.raw", vec![], &["file is 0 bytes", "need 8"]),
+        ("garbage.nrrd", garbage(5000), &["not a NRRD file"]),
+        ("garbage.nii", garbage(5000), &["NIfTI-1"]),
+        ("garbage.nii.gz", garbage(5000), &["NIfTI-1 header"]),
+        ("garbage.npy", garbage(5000), &["not a .npy file"]),
+        (
+            "magic.nrrd",
+            b"NRRD0009\ntype: uchar\n\n".to_vec(),
+            &["not a NRRD file", "NRRD0009"],
+        ),
+        (
+            "magic2.nrrd",
+            b"NRRX0004\ntype: uchar\n\n".to_vec(),
+            &["not a NRRD file"],
+        ),
+        (
+            "magic.npy",
+            b"\x93NUMPZ\x01\x00\x10\x00{}".to_vec(),
+            &["not a .npy file"],
+        ),
+        (
+            "version.npy",
+            b"\x93NUMPY\x09\x00\x10\x00{}".to_vec(),
+            &["format version 9.0"],
+        ),
+        (
+            "header.npy",
+            b"\x93NUMPY\x01\x00\x40\x00{'descr'".to_vec(),
+            &["too short"],
+        ),
+        (
+            "noline.nrrd",
+            b"NRRD0004\ntype uchar\n\n".to_vec(),
+            &["header line 2", "field: value"],
+        ),
+        (
+            "twice.nrrd",
+            b"NRRD0004\ntype: uchar\ntype: uchar\n\n".to_vec(),
+            &["'type' given twice"],
+        ),
+    ];
+    for (name, bytes, parts) in cases {
+        let path = dir.path().join(name);
+        std::fs::write(&path, bytes).unwrap();
+        assert_mentions(&failure(&path, &raw_opts), parts);
+    }
+}
+
+#[test]
+fn bad_nifti_headers_are_named() {
+    let dir = tempfile::tempdir().unwrap();
+    let t = ty(ScalarType::U8);
+    let data = [0u8; 8];
+    let mut cases: Vec<(&str, Nifti, &[&str])> = Vec::new();
+    let mut pair = Nifti::new([2, 2, 2], t);
+    pair.magic = *b"ni1\0";
+    cases.push(("pair", pair, &["hdr/.img pair"]));
+    let mut magic = Nifti::new([2, 2, 2], t);
+    magic.magic = *b"xyz\0";
+    cases.push(("magic", magic, &["not a NIfTI-1 file"]));
+    let mut complex = Nifti::new([2, 2, 2], t);
+    complex.datatype = 32;
+    cases.push((
+        "complex",
+        complex,
+        &["datatype 32 is not supported", "512 (uint16)"],
+    ));
+    let mut flat = Nifti::new([2, 2, 2], t);
+    flat.dim[0] = 2;
+    cases.push(("flat", flat, &["dim[0] = 2", "3-D"]));
+    let mut series = Nifti::new([2, 2, 2], t);
+    series.dim[0] = 4;
+    series.dim[4] = 3;
+    cases.push(("series", series, &["dim[4] = 3"]));
+    let mut negative = Nifti::new([2, -2, 2], t);
+    negative.pixdim[1] = 1.0;
+    cases.push(("negative", negative, &["dim[2] = -2", "positive"]));
+    let mut pixdim = Nifti::new([2, 2, 2], t);
+    pixdim.pixdim[2] = 0.0;
+    cases.push(("pixdim", pixdim, &["pixdim", "axis 1", "positive"]));
+    let mut nan = Nifti::new([2, 2, 2], t);
+    nan.sform_code = 1;
+    nan.srow = [
+        [1.0, 0.0, 0.0, f32::NAN],
+        [0.0, 1.0, 0.0, 0.0],
+        [0.0, 0.0, 1.0, 0.0],
+    ];
+    cases.push(("nan", nan, &["sform", "not finite"]));
+    for (name, header, parts) in cases {
+        let path = dir.path().join(format!("{name}.nii"));
+        std::fs::write(&path, header.bytes(&data)).unwrap();
+        assert_mentions(&failure(&path, &opts()), parts);
+    }
+    let truncated = dir.path().join("truncated.nii");
+    std::fs::write(&truncated, Nifti::new([2, 2, 3], t).bytes(&data)).unwrap();
+    assert_mentions(
+        &failure(&truncated, &opts()),
+        &["NIfTI data truncated", "need 12 bytes, found 8"],
+    );
+    // Incompressible data, so that cutting the stream's end cuts the data, not the header.
+    let gz = dir.path().join("truncated.nii.gz");
+    let compressed = gzip(&Nifti::new([8, 8, 8], t).bytes(&garbage(512)));
+    std::fs::write(&gz, &compressed[..compressed.len() - 100]).unwrap();
+    assert_mentions(&failure(&gz, &opts()), &["NIfTI data", "truncated"]);
+}
+
+#[test]
+fn bad_npy_headers_are_named() {
+    let dir = tempfile::tempdir().unwrap();
+    let cases: [(&str, &str, &[usize], &[&str]); 4] = [
+        (
+            "complex",
+            "<c8",
+            &[2, 2, 2],
+            &["dtype '<c8' is not supported"],
+        ),
+        ("int64", "<i8", &[2, 2, 2], &["dtype '<i8'"]),
+        ("flat", "<f4", &[4, 4], &["shape [4, 4]", "3-D"]),
+        ("zero", "<f4", &[2, 0, 2], &["shape [2, 0, 2]"]),
+    ];
+    for (name, descr, shape, parts) in cases {
+        let path = dir.path().join(format!("{name}.npy"));
+        write_npy(&path, 1, descr, false, shape, &[0; 32]);
+        assert_mentions(&failure(&path, &opts()), parts);
+    }
+    let path = dir.path().join("dict.npy");
+    let mut file = b"\x93NUMPY\x01\x00\x0c\x00".to_vec();
+    file.extend(b"{'descr': 3}");
+    std::fs::write(&path, file).unwrap();
+    assert_mentions(&failure(&path, &opts()), &["bad .npy header", "descr"]);
+}
+
+#[test]
+fn missing_files_unknown_extensions_and_raw_without_a_spec() {
+    let dir = tempfile::tempdir().unwrap();
+    for name in [
+        "missing.nrrd",
+        "missing.nii",
+        "missing.nii.gz",
+        "missing.npy",
+        "missing.vdb",
+    ] {
+        let path = dir.path().join(name);
+        let error = load(&path, &opts()).unwrap_err();
+        assert!(
+            matches!(error, Error::Io { .. }) || name.ends_with(".vdb"),
+            "{name}: {error}"
+        );
+        assert!(
+            error.to_string().contains(&path.display().to_string()),
+            "{error}"
+        );
+    }
+    let nhdr = dir.path().join("detached.nhdr");
+    std::fs::write(
+        &nhdr,
+        "NRRD0004\ntype: uchar\ndimension: 3\nsizes: 2 2 2\nencoding: raw\ndata file: gone.raw\n",
+    )
+    .unwrap();
+    let error = load(&nhdr, &opts()).unwrap_err();
+    assert!(matches!(error, Error::Io { .. }), "{error}");
+    assert!(error.to_string().contains("gone.raw"), "{error}");
+
+    let unknown = dir.path().join("volume.xyz");
+    std::fs::write(&unknown, [0u8; 8]).unwrap();
+    assert_mentions(
+        &failure(&unknown, &opts()),
+        &["unsupported file extension", ".nrrd", ".nii.gz", ".npy"],
+    );
+
+    let raw = dir.path().join("volume.raw");
+    std::fs::write(&raw, [0u8; 8]).unwrap();
+    assert_mentions(
+        &failure(&raw, &opts()),
+        &["no header", "dims", "type", "spacing"],
+    );
+    let bad_spacing = RawSpec {
+        dims: [2, 2, 2],
+        scalar: ScalarType::U8,
+        spacing: Vec3::new(1.0, f32::NAN, 1.0),
+        origin: Vec3::ZERO,
+        big_endian: false,
+        header_bytes: 0,
+    };
+    assert_mentions(
+        &failure(
+            &raw,
+            &LoadOptions {
+                raw: Some(bad_spacing),
+                ..opts()
+            },
+        ),
+        &["raw spacing: axis 1", "positive and finite"],
+    );
+}
+
+#[test]
+fn loaded_volumes_match_a_direct_construction() {
+    // The loader's output is an ordinary Volume: equal to one built from the same numbers.
+    let dir = tempfile::tempdir().unwrap();
+    let values = values_for(ScalarType::U8, 8);
+    let path = small_nrrd(
+        dir.path(),
+        "cube.nrrd",
+        &[
+            ("type", "uint8"),
+            ("dimension", "3"),
+            ("sizes", "2 2 2"),
+            ("spacings", "3 3 3"),
+            ("encoding", "raw"),
+        ],
+        &encode(ScalarType::U8, &values, false),
+    );
+    let direct = Volume::new([2, 2, 2], Vec3::splat(3.0), Vec3::ZERO, as_f32(&values)).unwrap();
+    assert_eq!(load(&path, &opts()).unwrap(), direct);
+}

@@ -1,0 +1,207 @@
+//! The ray caster's CPU and GPU twins render the same images. These tests need a Vulkan (or
+//! Metal/DX12) adapter and fail without one: `apt-get install mesa-vulkan-drivers` provides
+//! lavapipe on a machine without a GPU.
+//!
+//! Tolerance: per pixel, |RGBA_gpu - RGBA_cpu| <= 1e-3 * max(1, peak radiance) and depth within
+//! 1e-3 world units (pixels where only one twin's transmittance crossed 0.5 or the
+//! early-termination threshold within float rounding are allowed up to 0.5% of the image).
+//! Measured on lavapipe: see the printed worst differences.
+
+use std::sync::Arc;
+
+use glam::Vec3;
+use occlux::camera::{Camera, Projection};
+use occlux::classify::{presets, Classification};
+use occlux::gpu::{shared_context, GpuContext};
+use occlux::lights::{Light, Lighting};
+use occlux::progress::NoProgress;
+use occlux::render::raycast::{cpu, gpu, GradientShading, RaycastInput, RaycastParams, Shading};
+use occlux::render::{RenderImage, BACKGROUND_DEPTH};
+use occlux::volume::{phantom, Volume};
+
+fn ctx() -> Arc<GpuContext> {
+    shared_context().unwrap_or_else(|e| {
+        panic!("GPU tests need an adapter (apt-get install mesa-vulkan-drivers): {e}")
+    })
+}
+
+fn lighting() -> Lighting {
+    Lighting {
+        lights: vec![
+            Light::Ambient {
+                radiance: Vec3::new(0.2, 0.25, 0.3),
+            },
+            Light::Directional {
+                to_light: Vec3::new(-0.3, -1.0, 1.2).normalize(),
+                irradiance: Vec3::splat(3.0),
+            },
+            Light::Point {
+                position: Vec3::new(1.5, 1.0, 0.5),
+                intensity: Vec3::new(2.0, 1.0, 0.5),
+            },
+        ],
+        background: Vec3::new(0.05, 0.04, 0.03),
+    }
+}
+
+fn perspective(side: u32) -> Camera {
+    Camera::look_at(
+        Vec3::new(3.2, -3.2, 2.6),
+        Vec3::ZERO,
+        Vec3::Z,
+        Projection::Perspective {
+            fov_y: 36f32.to_radians(),
+        },
+        side,
+        side,
+    )
+    .unwrap()
+}
+
+/// Renders on both twins and checks the stated tolerance; returns the worst RGBA difference.
+fn compare(
+    volume: &Volume,
+    classification: &Classification,
+    camera: &Camera,
+    params: &RaycastParams,
+) -> f32 {
+    let lut = classification.bake(volume);
+    let lighting = lighting();
+    let input = RaycastInput {
+        volume,
+        lut: &lut,
+        camera,
+        lighting: &lighting,
+        params,
+    };
+    let on_cpu = cpu::render(&input, &NoProgress).unwrap();
+    let on_gpu = gpu::render(&ctx(), &input, &NoProgress).unwrap();
+    assert_same(&on_cpu, &on_gpu)
+}
+
+fn assert_same(a: &RenderImage, b: &RenderImage) -> f32 {
+    assert_eq!((a.width, a.height), (b.width, b.height));
+    let peak = a
+        .rgba
+        .iter()
+        .flat_map(|p| p[..3].iter().copied())
+        .fold(1.0f32, f32::max);
+    let tolerance = 1e-3 * peak;
+    let mut worst = 0.0f32;
+    let mut outliers = 0;
+    for (i, (pa, pb)) in a.rgba.iter().zip(&b.rgba).enumerate() {
+        let diff = pa.iter().zip(pb).map(|(x, y)| (x - y).abs()).fold(0.0, f32::max);
+        let depth_ok = (a.depth[i] == BACKGROUND_DEPTH) == (b.depth[i] == BACKGROUND_DEPTH)
+            && (a.depth[i] - b.depth[i]).abs() <= 1e-3;
+        assert!(pb.iter().all(|x| x.is_finite()), "pixel {i}: {pb:?}");
+        if diff > tolerance || !depth_ok {
+            outliers += 1;
+        } else {
+            worst = worst.max(diff);
+        }
+    }
+    let allowed = a.rgba.len() / 200;
+    assert!(
+        outliers <= allowed,
+        "{outliers} pixels differ beyond tolerance {tolerance} (allowed {allowed})"
+    );
+    println!("worst RGBA difference {worst:.3e} (peak {peak:.3}), {outliers} outliers");
+    worst
+}
+
+#[test]
+fn gradient_shading_agrees_on_the_ct_phantom() {
+    let volume = phantom::ct(48).unwrap();
+    let params = RaycastParams {
+        shading: Shading::Gradient(GradientShading::default()),
+        ..RaycastParams::default()
+    };
+    compare(
+        &volume,
+        &presets::preset("ct-soft-tissue").unwrap(),
+        &perspective(64),
+        &params,
+    );
+}
+
+#[test]
+fn unshaded_with_2d_transfer_function_and_emission_agrees() {
+    let volume = phantom::shells(40).unwrap();
+    let mut classification = presets::preset("boundary-2d").unwrap();
+    classification.density_scale = 0.5;
+    let params = RaycastParams {
+        shading: Shading::Unshaded,
+        step: Some(0.02),
+        ert_threshold: 0.0,
+    };
+    compare(&volume, &classification, &perspective(48), &params);
+    // Emission through a 1D table: the cloud glows.
+    let cloud = phantom::cloud(40, 7).unwrap();
+    let mut glow = presets::preset("simulation").unwrap();
+    if let occlux::classify::TransferFunction::OneD(tf) = &glow.tf {
+        let mut points = tf.points().to_vec();
+        points.iter_mut().for_each(|p| p.emission = [p.value, 0.5 * p.value, 0.1]);
+        glow.tf = occlux::classify::TransferFunction::OneD(
+            occlux::classify::TransferFunction1D::new(points).unwrap(),
+        );
+    }
+    compare(&cloud, &glow, &perspective(48), &params);
+}
+
+#[test]
+fn orthographic_and_inside_cameras_agree() {
+    let volume = phantom::marschner_lobb(41).unwrap();
+    let classification = presets::preset("simulation").unwrap();
+    let params = RaycastParams {
+        shading: Shading::Gradient(GradientShading::default()),
+        ..RaycastParams::default()
+    };
+    let ortho = Camera::look_at(
+        Vec3::new(0.3, -4.0, 0.2),
+        Vec3::ZERO,
+        Vec3::Z,
+        Projection::Orthographic { scale: 2.5 },
+        40,
+        32,
+    )
+    .unwrap();
+    compare(&volume, &classification, &ortho, &params);
+    let inside = Camera::look_at(
+        Vec3::new(0.1, -0.2, 0.05),
+        Vec3::new(1.0, 1.0, 0.3),
+        Vec3::Z,
+        Projection::Perspective {
+            fov_y: 70f32.to_radians(),
+        },
+        32,
+        40,
+    )
+    .unwrap();
+    compare(&volume, &classification, &inside, &params);
+}
+
+#[test]
+fn volumes_beyond_one_storage_binding_render_on_both() {
+    // 336 x 336 x 300 f32 = 129 MiB: more than lavapipe's 128 MiB storage binding.
+    let dims = [336, 336, 300];
+    let h = 2.0 / 336.0;
+    let volume = Volume::from_fn(
+        dims,
+        Vec3::splat(h),
+        Vec3::new(-1.0 + 0.5 * h, -1.0 + 0.5 * h, -0.9 + 0.5 * h),
+        |p| (1.0 - p.length()).clamp(0.0, 1.0) * (0.5 + 0.5 * (6.0 * p.x).sin()),
+    )
+    .unwrap();
+    assert!(volume.values().len() * 4 > 128 << 20);
+    let params = RaycastParams {
+        shading: Shading::Unshaded,
+        step: Some(4.0 * h),
+        ..RaycastParams::default()
+    };
+    compare(
+        &volume,
+        &presets::preset("simulation").unwrap(),
+        &perspective(24),
+        &params,
+    );
+}
