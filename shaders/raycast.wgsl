@@ -33,7 +33,7 @@ struct Params {
     lut_range: vec4<f32>,      // value min, value max, gradient max (0: 1D table), unused
     lut_size: vec4<f32>,       // entries along value, along gradient
     march: vec4<f32>,          // step, ERT threshold, normal threshold, shading (0 unshaded, 1 gradient)
-    phong: vec4<f32>,          // specular, shininess, light count, needs gradient (0/1)
+    phong: vec4<f32>,          // specular, shininess, light count, unused
     band: vec4<f32>,           // first row of this dispatch, rows in it
     lights: array<Light, 8>,
 };
@@ -186,7 +186,9 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
     }
     let step = params.march.x;
     let ert = params.march.y;
-    let needs_gradient = params.phong.w == 1.0;
+    // A 2D table needs the gradient to classify; shading needs it only where there is matter.
+    let table_2d = params.lut_range.z > 0.0;
+    let shaded = params.march.w == 1.0;
     let steps = u32(ceil((span.y - span.x) / step));
     var radiance = vec3<f32>(0.0);
     var transmittance = 1.0;
@@ -197,12 +199,15 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
         let p = origin + (ta + 0.5 * dt) * dir;
         let value = sample_at(p);
         var grad = vec3<f32>(0.0);
-        if (needs_gradient) {
+        if (table_2d) {
             grad = gradient_at(p);
         }
         let o = lookup(value, length(grad));
         if (o.sigma_t <= 0.0 && all(o.emission == vec3<f32>(0.0))) {
             continue;
+        }
+        if (shaded && !table_2d) {
+            grad = gradient_at(p);
         }
         let alpha = 1.0 - exp(-o.sigma_t * dt);
         let light_in = in_scattered(o, p, grad, dir);

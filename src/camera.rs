@@ -51,11 +51,17 @@ impl Camera {
         height: u32,
     ) -> Result<Self> {
         if !position.is_finite() || !target.is_finite() || !up.is_finite() {
-            return Err(Error::param("camera", "position, target and up must be finite"));
+            return Err(Error::param(
+                "camera",
+                "position, target and up must be finite",
+            ));
         }
         let forward = (target - position).normalize_or_zero();
         if forward == Vec3::ZERO {
-            return Err(Error::param("camera.target", "must differ from camera.position"));
+            return Err(Error::param(
+                "camera.target",
+                "must differ from camera.position",
+            ));
         }
         let right = forward.cross(up).normalize_or_zero();
         if right == Vec3::ZERO {
@@ -102,7 +108,10 @@ impl Camera {
     /// (the sensor spans the larger image dimension).
     pub fn fov_y_from_lens(lens_mm: f32, sensor_mm: f32, width: u32, height: u32) -> Result<f32> {
         if !(lens_mm > 0.0 && lens_mm.is_finite()) {
-            return Err(Error::param("camera.lens_mm", format!("must be positive, got {lens_mm}")));
+            return Err(Error::param(
+                "camera.lens_mm",
+                format!("must be positive, got {lens_mm}"),
+            ));
         }
         if !(sensor_mm > 0.0 && sensor_mm.is_finite()) {
             return Err(Error::param(
@@ -220,7 +229,10 @@ mod tests {
             origin: Vec3::splat(0.5),
             dir: Vec3::Z,
         };
-        assert_eq!(intersect_box(&inside, Vec3::ZERO, Vec3::ONE), Some((0.0, 0.5)));
+        assert_eq!(
+            intersect_box(&inside, Vec3::ZERO, Vec3::ONE),
+            Some((0.0, 0.5))
+        );
         let miss = Ray {
             origin: Vec3::new(-3.0, 2.0, 0.5),
             dir: Vec3::X,

@@ -16,7 +16,11 @@ use std::time::Instant;
 const DEMO_SCENE: &str = include_str!("../examples/demo.toml");
 
 #[derive(Parser)]
-#[command(name = "occlux", version, about = "Illumination for scientific volumes")]
+#[command(
+    name = "occlux",
+    version,
+    about = "Illumination for scientific volumes"
+)]
 struct Cli {
     /// Print nothing but errors.
     #[arg(long, global = true)]
@@ -118,6 +122,15 @@ fn render_scene(
     output: &OutputArgs,
     quiet: bool,
 ) -> occlux::Result<()> {
+    let options = OutputOptions {
+        precision: if output.float32 {
+            Precision::Float
+        } else {
+            Precision::Half
+        },
+        exposure: output.exposure,
+    };
+    options.validate()?;
     let (compute, notice) = Compute::resolve(output.device)?;
     if let (Some(notice), false) = (notice, quiet) {
         eprintln!("{notice}");
@@ -149,14 +162,6 @@ fn render_scene(
         img.height,
         render_start.elapsed().as_secs_f64()
     ));
-    let options = OutputOptions {
-        precision: if output.float32 {
-            Precision::Float
-        } else {
-            Precision::Half
-        },
-        exposure: output.exposure,
-    };
     for path in pipeline::write_render(&img, scene, out, stem, &options)? {
         say(format!("wrote {}", path.display()));
     }
@@ -188,7 +193,8 @@ fn info(
         ..LoadOptions::default()
     };
     if let Some(dims) = raw_dims {
-        let name = raw_type.ok_or_else(|| occlux::Error::param("--raw-type", "needed with --raw-dims"))?;
+        let name =
+            raw_type.ok_or_else(|| occlux::Error::param("--raw-type", "needed with --raw-dims"))?;
         let scalar = ScalarType::from_name(&name)
             .ok_or_else(|| occlux::Error::param("--raw-type", format!("unknown type '{name}'")))?;
         let spacing = raw_spacing.unwrap_or_else(|| vec![1.0; 3]);
@@ -206,8 +212,19 @@ fn info(
     let (lo, hi) = vol.value_range();
     let (blo, bhi) = vol.bounds();
     println!("file      {}", file.display());
-    println!("format    {} ({}{})", source.format, source.scalar, source.grid.map_or(String::new(), |g| format!(", grid '{g}'")));
-    println!("dims      {nx} x {ny} x {nz} ({} voxels, {:.1} MiB as f32)", vol.values().len(), vol.values().len() as f64 * 4.0 / (1 << 20) as f64);
+    println!(
+        "format    {} ({}{})",
+        source.format,
+        source.scalar,
+        source
+            .grid
+            .map_or(String::new(), |g| format!(", grid '{g}'"))
+    );
+    println!(
+        "dims      {nx} x {ny} x {nz} ({} voxels, {:.1} MiB as f32)",
+        vol.values().len(),
+        vol.values().len() as f64 * 4.0 / (1 << 20) as f64
+    );
     println!("spacing   {}", vol.spacing());
     println!("origin    {}", vol.origin());
     println!("bounds    {blo} .. {bhi}");

@@ -42,6 +42,18 @@ pub struct OutputOptions {
     pub exposure: f32,
 }
 
+impl OutputOptions {
+    pub fn validate(&self) -> Result<()> {
+        if !(self.exposure > 0.0 && self.exposure.is_finite()) {
+            return Err(Error::param(
+                "exposure",
+                format!("must be positive, got {}", self.exposure),
+            ));
+        }
+        Ok(())
+    }
+}
+
 impl Default for OutputOptions {
     fn default() -> Self {
         Self {
@@ -60,12 +72,7 @@ pub fn write_render(
     stem: &str,
     options: &OutputOptions,
 ) -> Result<Vec<PathBuf>> {
-    if !(options.exposure > 0.0 && options.exposure.is_finite()) {
-        return Err(Error::param(
-            "exposure",
-            format!("must be positive, got {}", options.exposure),
-        ));
-    }
+    options.validate()?;
     std::fs::create_dir_all(out_dir).map_err(|e| Error::io(out_dir, e))?;
     let exr_path = out_dir.join(format!("{stem}.exr"));
     let png_path = out_dir.join(format!("{stem}.png"));

@@ -94,7 +94,8 @@ impl Scene {
 
     /// Parses and validates scene text; `base` resolves relative paths.
     pub fn parse(text: &str, base: &Path) -> Result<Self> {
-        let file: SceneFile = toml::from_str(text).map_err(|e| Error::param("scene", e.message()))?;
+        let file: SceneFile =
+            toml::from_str(text).map_err(|e| Error::param("scene", e.message()))?;
         file.resolve(base)
     }
 
@@ -263,9 +264,17 @@ impl Colour {
 #[derive(Deserialize)]
 #[serde(tag = "type", rename_all = "lowercase", deny_unknown_fields)]
 enum LightSection {
-    Ambient { radiance: Colour },
-    Directional { direction: [f32; 3], irradiance: Colour },
-    Point { position: [f32; 3], intensity: Colour },
+    Ambient {
+        radiance: Colour,
+    },
+    Directional {
+        direction: [f32; 3],
+        irradiance: Colour,
+    },
+    Point {
+        position: [f32; 3],
+        intensity: Colour,
+    },
 }
 
 #[derive(Deserialize)]
@@ -347,7 +356,10 @@ impl VolumeSection {
         };
         if let Some(fit) = self.fit {
             if !(fit > 0.0 && fit.is_finite()) {
-                return Err(Error::param("volume.fit", format!("must be positive, got {fit}")));
+                return Err(Error::param(
+                    "volume.fit",
+                    format!("must be positive, got {fit}"),
+                ));
             }
         }
         let centre = self.centre.map(Vec3::from);
@@ -376,8 +388,9 @@ impl VolumeSection {
         if let Some(raw) = self.raw {
             options.raw = Some(RawSpec {
                 dims: raw.dims,
-                scalar: ScalarType::from_name(&raw.scalar)
-                    .ok_or_else(|| Error::param("volume.raw.type", format!("unknown type '{}'", raw.scalar)))?,
+                scalar: ScalarType::from_name(&raw.scalar).ok_or_else(|| {
+                    Error::param("volume.raw.type", format!("unknown type '{}'", raw.scalar))
+                })?,
                 spacing: Vec3::from(raw.spacing),
                 origin: Vec3::from(raw.origin),
                 big_endian: raw.big_endian,
@@ -449,7 +462,10 @@ impl CameraSection {
                     )?,
                     (None, None) => 40f32.to_radians(),
                     (Some(_), Some(_)) => {
-                        return Err(Error::param("camera.fov_deg", "give fov_deg or lens_mm, not both"))
+                        return Err(Error::param(
+                            "camera.fov_deg",
+                            "give fov_deg or lens_mm, not both",
+                        ))
                     }
                 };
                 Projection::Perspective { fov_y }
@@ -514,7 +530,10 @@ impl RenderSection {
     fn resolve(self) -> Result<Method> {
         let shading = match self.method.as_str() {
             "unshaded" => {
-                if self.specular.is_some() || self.shininess.is_some() || self.normal_threshold.is_some() {
+                if self.specular.is_some()
+                    || self.shininess.is_some()
+                    || self.normal_threshold.is_some()
+                {
                     return Err(Error::param(
                         "render.specular",
                         "specular, shininess and normal_threshold are for method = \"gradient\"",

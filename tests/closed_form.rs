@@ -61,7 +61,11 @@ fn slab_transmittance_matches_beer_lambert() {
     let img = render(&volume, &lut, &top_camera(1.5, 16), &Lighting::default());
     let expected = 1.0 - (-sigma * 2.0 * 0.5f32).exp();
     for px in &img.rgba {
-        assert!((px[3] - expected).abs() < 1e-3, "alpha {} vs {expected}", px[3]);
+        assert!(
+            (px[3] - expected).abs() < 1e-3,
+            "alpha {} vs {expected}",
+            px[3]
+        );
     }
 }
 
@@ -75,7 +79,12 @@ fn sphere_transmittance_matches_chord_lengths() {
     let lut = linear_lut(&volume, sigma, 0.5);
     let side = 32;
     let scale = 2.0;
-    let img = render(&volume, &lut, &top_camera(scale, side), &Lighting::default());
+    let img = render(
+        &volume,
+        &lut,
+        &top_camera(scale, side),
+        &Lighting::default(),
+    );
     let mut checked = 0;
     for j in 0..side {
         for i in 0..side {
@@ -125,6 +134,9 @@ fn unshaded_radiance_of_a_uniformly_lit_medium() {
         let opacity = px[3];
         let expected = scattered * opacity + background * (1.0 - opacity);
         let got = Vec3::new(px[0], px[1], px[2]);
-        assert!((got - expected).abs().max_element() < 1e-4, "{got} vs {expected}");
+        assert!(
+            (got - expected).abs().max_element() < 1e-4,
+            "{got} vs {expected}"
+        );
     }
 }

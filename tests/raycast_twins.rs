@@ -90,7 +90,11 @@ fn assert_same(a: &RenderImage, b: &RenderImage) -> f32 {
     let mut worst = 0.0f32;
     let mut outliers = 0;
     for (i, (pa, pb)) in a.rgba.iter().zip(&b.rgba).enumerate() {
-        let diff = pa.iter().zip(pb).map(|(x, y)| (x - y).abs()).fold(0.0, f32::max);
+        let diff = pa
+            .iter()
+            .zip(pb)
+            .map(|(x, y)| (x - y).abs())
+            .fold(0.0, f32::max);
         let depth_ok = (a.depth[i] == BACKGROUND_DEPTH) == (b.depth[i] == BACKGROUND_DEPTH)
             && (a.depth[i] - b.depth[i]).abs() <= 1e-3;
         assert!(pb.iter().all(|x| x.is_finite()), "pixel {i}: {pb:?}");
@@ -140,7 +144,9 @@ fn unshaded_with_2d_transfer_function_and_emission_agrees() {
     let mut glow = presets::preset("simulation").unwrap();
     if let occlux::classify::TransferFunction::OneD(tf) = &glow.tf {
         let mut points = tf.points().to_vec();
-        points.iter_mut().for_each(|p| p.emission = [p.value, 0.5 * p.value, 0.1]);
+        points
+            .iter_mut()
+            .for_each(|p| p.emission = [p.value, 0.5 * p.value, 0.1]);
         glow.tf = occlux::classify::TransferFunction::OneD(
             occlux::classify::TransferFunction1D::new(points).unwrap(),
         );

@@ -146,8 +146,8 @@ mod tests {
             ControlPoint::new(1.0, 2.0, [0.5; 3], [1.0; 3]),
         ])
         .unwrap();
-        let c = Classification::new(TransferFunction::OneD(tf), ValueUnits::Normalized, 3.0)
-            .unwrap();
+        let c =
+            Classification::new(TransferFunction::OneD(tf), ValueUnits::Normalized, 3.0).unwrap();
         let lut = c.bake_over(10.0, 20.0, 0.0);
         let o = lut.lookup(15.0, 0.0);
         assert!((o.sigma_t - 3.0).abs() < 1e-5);

@@ -7,7 +7,13 @@ use super::{
 use crate::error::{Error, Result};
 
 /// The preset names `preset` accepts.
-pub const PRESETS: &[&str] = &["ct-bone", "ct-soft-tissue", "mri", "simulation", "boundary-2d"];
+pub const PRESETS: &[&str] = &[
+    "ct-bone",
+    "ct-soft-tissue",
+    "mri",
+    "simulation",
+    "boundary-2d",
+];
 
 fn point(value: f32, sigma_t: f32, albedo: [f32; 3]) -> ControlPoint {
     ControlPoint::new(value, sigma_t, albedo, [0.0; 3])
@@ -20,17 +26,17 @@ pub fn preset(name: &str) -> Result<Classification> {
         "ct-bone" => TransferFunction::OneD(TransferFunction1D::new(vec![
             point(0.0, 0.0, [0.9, 0.85, 0.75]),
             point(0.35, 0.0, [0.9, 0.85, 0.75]),
-            point(0.55, 40.0, [0.95, 0.92, 0.85]),
-            point(1.0, 60.0, [1.0, 0.97, 0.92]),
+            point(0.55, 10.0, [0.95, 0.92, 0.85]),
+            point(1.0, 25.0, [1.0, 0.97, 0.92]),
         ])?),
         // Soft tissue translucent and reddish, bone denser.
         "ct-soft-tissue" => TransferFunction::OneD(TransferFunction1D::new(vec![
             point(0.0, 0.0, [0.8, 0.4, 0.3]),
             point(0.12, 0.0, [0.8, 0.4, 0.3]),
-            point(0.25, 4.0, [0.85, 0.45, 0.35]),
-            point(0.45, 6.0, [0.9, 0.6, 0.5]),
-            point(0.6, 30.0, [0.95, 0.92, 0.85]),
-            point(1.0, 50.0, [1.0, 0.97, 0.92]),
+            point(0.25, 1.0, [0.85, 0.45, 0.35]),
+            point(0.45, 1.5, [0.9, 0.6, 0.5]),
+            point(0.6, 6.0, [0.95, 0.92, 0.85]),
+            point(1.0, 14.0, [1.0, 0.97, 0.92]),
         ])?),
         // MRI intensities: background noise clear, tissue gradually denser.
         "mri" => TransferFunction::OneD(TransferFunction1D::new(vec![

@@ -49,14 +49,25 @@ fn full_gradient() -> [f32; 2] {
 
 impl Widget {
     fn validate(&self, key: &str) -> Result<()> {
-        let finite = [self.value, self.width_bottom, self.gradient[0], self.gradient[1]]
-            .iter()
-            .all(|x| x.is_finite());
+        let finite = [
+            self.value,
+            self.width_bottom,
+            self.gradient[0],
+            self.gradient[1],
+        ]
+        .iter()
+        .all(|x| x.is_finite());
         if !finite {
-            return Err(Error::param(key, "value, widths and gradient must be finite"));
+            return Err(Error::param(
+                key,
+                "value, widths and gradient must be finite",
+            ));
         }
         let top = self.width_top.unwrap_or(self.width_bottom);
-        if self.width_bottom < 0.0 || !top.is_finite() || top < 0.0 || top + self.width_bottom <= 0.0
+        if self.width_bottom < 0.0
+            || !top.is_finite()
+            || top < 0.0
+            || top + self.width_bottom <= 0.0
         {
             return Err(Error::param(
                 format!("{key}.width_bottom"),
@@ -67,7 +78,10 @@ impl Widget {
         if !(0.0..=1.0).contains(&g0) || !(0.0..=1.0).contains(&g1) || g0 >= g1 {
             return Err(Error::param(
                 format!("{key}.gradient"),
-                format!("must be [low, high] with 0 <= low < high <= 1, got {:?}", self.gradient),
+                format!(
+                    "must be [low, high] with 0 <= low < high <= 1, got {:?}",
+                    self.gradient
+                ),
             ));
         }
         validate_optics(key, self.sigma_t, self.albedo, self.emission)

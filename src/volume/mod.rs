@@ -45,7 +45,9 @@ impl Volume {
             )));
         }
         if !origin.is_finite() {
-            return Err(Error::Volume(format!("origin must be finite, got {origin}")));
+            return Err(Error::Volume(format!(
+                "origin must be finite, got {origin}"
+            )));
         }
         if let Some(index) = values.iter().position(|v| !v.is_finite()) {
             return Err(Error::Volume(format!(
@@ -157,7 +159,11 @@ impl Volume {
         let base = c.floor();
         let f = c - base;
         let (i0, j0, k0) = (base.x as usize, base.y as usize, base.z as usize);
-        let (i1, j1, k1) = ((i0 + 1).min(nx - 1), (j0 + 1).min(ny - 1), (k0 + 1).min(nz - 1));
+        let (i1, j1, k1) = (
+            (i0 + 1).min(nx - 1),
+            (j0 + 1).min(ny - 1),
+            (k0 + 1).min(nz - 1),
+        );
         let lerp = |a: f32, b: f32, t: f32| a + (b - a) * t;
         let c00 = lerp(self.at(i0, j0, k0), self.at(i1, j0, k0), f.x);
         let c10 = lerp(self.at(i0, j1, k0), self.at(i1, j1, k0), f.x);
@@ -203,7 +209,11 @@ impl Volume {
         let bins = bins.max(1);
         let (lo, hi) = self.value_range();
         let mut counts = vec![0u64; bins];
-        let scale = if hi > lo { bins as f32 / (hi - lo) } else { 0.0 };
+        let scale = if hi > lo {
+            bins as f32 / (hi - lo)
+        } else {
+            0.0
+        };
         for &v in &self.values {
             let b = (((v - lo) * scale) as usize).min(bins - 1);
             counts[b] += 1;
@@ -261,9 +271,12 @@ mod tests {
 
     fn ramp() -> Volume {
         // v = 2x + 3y - z, linear, so trilinear sampling and central differences are exact.
-        Volume::from_fn([5, 6, 7], Vec3::new(0.5, 1.0, 2.0), Vec3::new(-1.0, 0.0, 1.0), |p| {
-            2.0 * p.x + 3.0 * p.y - p.z
-        })
+        Volume::from_fn(
+            [5, 6, 7],
+            Vec3::new(0.5, 1.0, 2.0),
+            Vec3::new(-1.0, 0.0, 1.0),
+            |p| 2.0 * p.x + 3.0 * p.y - p.z,
+        )
         .unwrap()
     }
 
@@ -294,7 +307,12 @@ mod tests {
         vals[5] = f32::NAN;
         let nan = Volume::new([2, 2, 2], Vec3::ONE, Vec3::ZERO, vals);
         assert!(nan.unwrap_err().to_string().contains("[1, 0, 1]"));
-        let sp = Volume::new([2, 2, 2], Vec3::new(1.0, 0.0, 1.0), Vec3::ZERO, vec![0.0; 8]);
+        let sp = Volume::new(
+            [2, 2, 2],
+            Vec3::new(1.0, 0.0, 1.0),
+            Vec3::ZERO,
+            vec![0.0; 8],
+        );
         assert!(sp.unwrap_err().to_string().contains("spacing"));
     }
 

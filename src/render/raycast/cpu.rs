@@ -38,11 +38,16 @@ pub fn march(input: &RaycastInput, setup: &RaycastSetup, ray: &Ray) -> ([f32; 4]
     let background = input.lighting.background;
     let (lo, hi) = input.volume.bounds();
     let Some((t_near, t_far)) = intersect_box(ray, lo, hi) else {
-        return ([background.x, background.y, background.z, 0.0], BACKGROUND_DEPTH);
+        return (
+            [background.x, background.y, background.z, 0.0],
+            BACKGROUND_DEPTH,
+        );
     };
     let volume = input.volume;
     let lut = input.lut;
-    let needs_gradient = lut.gradient_max().is_some() || input.params.shading != Shading::Unshaded;
+    // A 2D table needs the gradient to classify; shading needs it only where there is matter.
+    let table_2d = lut.gradient_max().is_some();
+    let shaded = input.params.shading != Shading::Unshaded;
     let ambient = input.lighting.ambient();
     let ert = input.params.ert_threshold;
     let step = setup.step;
@@ -56,7 +61,7 @@ pub fn march(input: &RaycastInput, setup: &RaycastSetup, ray: &Ray) -> ([f32; 4]
         let dt = (t_far - ta).min(step);
         let p = ray.origin + (ta + 0.5 * dt) * ray.dir;
         let value = volume.sample(p);
-        let grad = if needs_gradient {
+        let mut grad = if table_2d {
             volume.gradient(p)
         } else {
             Vec3::ZERO
@@ -64,6 +69,9 @@ pub fn march(input: &RaycastInput, setup: &RaycastSetup, ray: &Ray) -> ([f32; 4]
         let optical = lut.lookup(value, grad.length());
         if optical.sigma_t <= 0.0 && optical.emission == Vec3::ZERO {
             continue;
+        }
+        if shaded && !table_2d {
+            grad = volume.gradient(p);
         }
         let alpha = 1.0 - (-optical.sigma_t * dt).exp();
         let light_in = in_scattered(input, setup, &optical, p, grad, ray.dir, ambient);
@@ -102,7 +110,11 @@ fn in_scattered(
     dir: Vec3,
     ambient: Vec3,
 ) -> Vec3 {
-    let lights = input.lighting.lights.iter().filter_map(|l: &Light| incident(l, p));
+    let lights = input
+        .lighting
+        .lights
+        .iter()
+        .filter_map(|l: &Light| incident(l, p));
     match input.params.shading {
         Shading::Unshaded => {
             let direct: Vec3 = lights.map(|(_, e)| e).sum();

@@ -149,7 +149,6 @@ fn params(input: &RaycastInput, setup: &RaycastSetup) -> Params {
         Shading::Unshaded => (0.0, 0.0, 1.0),
         Shading::Gradient(g) => (1.0, g.specular, g.shininess),
     };
-    let needs_gradient = lut.gradient_max().is_some() || input.params.shading != Shading::Unshaded;
     let mut lights = [GpuLight::zeroed(); MAX_LIGHTS];
     let mut count = 0;
     for light in &input.lighting.lights {
@@ -194,12 +193,7 @@ fn params(input: &RaycastInput, setup: &RaycastSetup) -> Params {
             setup.normal_threshold,
             shading,
         ),
-        phong: Vec4::new(
-            specular,
-            shininess,
-            count as f32,
-            if needs_gradient { 1.0 } else { 0.0 },
-        ),
+        phong: Vec4::new(specular, shininess, count as f32, 0.0),
         band: Vec4::ZERO,
         lights,
     }

@@ -116,9 +116,7 @@ impl RaycastParams {
 
     /// The step for a volume of the given spacing, checked against the longest ray through it.
     pub fn resolve_step(&self, volume: &crate::volume::Volume) -> Result<f32> {
-        let step = self
-            .step
-            .unwrap_or(0.5 * volume.spacing().min_element());
+        let step = self.step.unwrap_or(0.5 * volume.spacing().min_element());
         let (lo, hi) = volume.bounds();
         if (hi - lo).length() / step > MAX_STEPS {
             return Err(Error::param(

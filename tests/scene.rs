@@ -1,0 +1,156 @@
+//! Scene files: the examples parse, placement follows `fit` and `centre`, and bad keys or values
+//! are errors naming the key and the file.
+
+use glam::Vec3;
+use occlux::render::raycast::Shading;
+use occlux::scene::{Method, Scene};
+use std::path::Path;
+
+const MINIMAL: &str = r#"
+[volume]
+phantom = "sphere"
+size = 16
+
+[camera]
+position = [0, -4, 0]
+"#;
+
+fn parse(text: &str) -> occlux::Result<Scene> {
+    Scene::parse(text, Path::new("."))
+}
+
+fn error_of(text: &str) -> String {
+    parse(text).unwrap_err().to_string()
+}
+
+#[test]
+fn every_example_parses() {
+    let dir = concat!(env!("CARGO_MANIFEST_DIR"), "/examples");
+    let mut count = 0;
+    for entry in std::fs::read_dir(dir).unwrap() {
+        let path = entry.unwrap().path();
+        if path.extension().is_some_and(|e| e == "toml") {
+            Scene::from_file(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+            count += 1;
+        }
+    }
+    assert!(count >= 2);
+}
+
+#[test]
+fn defaults_fill_a_minimal_scene() {
+    let scene = parse(MINIMAL).unwrap();
+    assert_eq!((scene.camera.width, scene.camera.height), (512, 512));
+    assert!(matches!(
+        scene.method,
+        Method::Raycast(p) if matches!(p.shading, Shading::Gradient(_))
+    ));
+    assert!((scene.camera.forward - Vec3::Y).length() < 1e-6);
+}
+
+#[test]
+fn engine_example_matches_the_cycles_benchmark_placement() {
+    let path = Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/examples/engine.toml"));
+    let scene = Scene::from_file(path).unwrap();
+    let volume = scene.load_volume().unwrap_or_else(|e| {
+        panic!("needs ../shared/data/scivis/engine.nrrd beside the checkout: {e}")
+    });
+    // shared/bench/engine-cycles/README.md: voxel size 1/128, box [-1,1]^2 x [-0.5,0.5].
+    assert!((volume.spacing() - Vec3::splat(1.0 / 128.0)).length() < 1e-7);
+    let (lo, hi) = volume.bounds();
+    assert!((lo - Vec3::new(-1.0, -1.0, -0.5)).length() < 1e-5, "{lo}");
+    assert!((hi - Vec3::new(1.0, 1.0, 0.5)).length() < 1e-5, "{hi}");
+    // 65 mm lens on a 36 mm sensor.
+    let fov = match scene.camera.projection {
+        occlux::camera::Projection::Perspective { fov_y } => fov_y,
+        _ => panic!("perspective expected"),
+    };
+    assert!((fov - 2.0 * (18.0f32 / 65.0).atan()).abs() < 1e-6);
+}
+
+#[test]
+fn fit_and_centre_place_the_volume() {
+    let scene =
+        parse(&MINIMAL.replace("size = 16", "size = 16\nfit = 4.0\ncentre = [1, 2, 3]")).unwrap();
+    let (lo, hi) = scene.load_volume().unwrap().bounds();
+    assert!((lo - Vec3::new(-1.0, 0.0, 1.0)).length() < 1e-5, "{lo}");
+    assert!((hi - Vec3::new(3.0, 4.0, 5.0)).length() < 1e-5, "{hi}");
+}
+
+#[test]
+fn unknown_keys_are_named() {
+    let err = error_of(&MINIMAL.replace("position", "fov = 30\nposition"));
+    assert!(err.contains("fov"), "{err}");
+    let err = error_of(&format!(
+        "{MINIMAL}\n[render]\nmethod = \"gradient\"\nspecularity = 2\n"
+    ));
+    assert!(err.contains("specularity"), "{err}");
+}
+
+#[test]
+fn out_of_range_values_are_named() {
+    let cases = [
+        ("position", "fov_deg = 180\nposition", "camera.fov_deg"),
+        ("position", "width = 0\nposition", "camera.width"),
+        ("position", "target = [0, -4, 0]\nposition", "camera.target"),
+        ("size = 16", "size = 1", "volume.size"),
+        ("size = 16", "size = 16\nfit = -1", "volume.fit"),
+        (
+            "phantom = \"sphere\"",
+            "phantom = \"teapot\"",
+            "volume.phantom",
+        ),
+        (
+            "phantom = \"sphere\"",
+            "phantom = \"sphere\"\npath = \"x.nrrd\"",
+            "volume",
+        ),
+    ];
+    for (from, to, key) in cases {
+        let err = error_of(&MINIMAL.replace(from, to));
+        assert!(err.contains(key), "{to}: {err}");
+    }
+    let tail_cases = [
+        ("[classification]\ndensity_scale = -2", "density_scale"),
+        (
+            "[classification]\npreset = \"nope\"",
+            "classification.preset",
+        ),
+        ("[render]\nmethod = \"magic\"", "render.method"),
+        ("[render]\nstep = 0", "render.step"),
+        ("[render]\nert_threshold = 1.5", "render.ert_threshold"),
+        ("[render]\nshininess = 0", "render.shininess"),
+        (
+            "[[lights]]\ntype = \"directional\"\ndirection = [0, 0, 0]\nirradiance = 1",
+            "lights[0].direction",
+        ),
+        ("[[lights]]\ntype = \"ambient\"\nradiance = -1", "lights[0]"),
+        (
+            "[classification]\npoints = [{ value = 0, sigma_t = 1, albedo = [2, 0, 0] }]",
+            "points[0].albedo",
+        ),
+    ];
+    for (tail, key) in tail_cases {
+        let err = error_of(&format!("{MINIMAL}\n{tail}\n"));
+        assert!(err.contains(key), "{tail}: {err}");
+    }
+}
+
+#[test]
+fn file_errors_name_the_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("broken.toml");
+    std::fs::write(&path, MINIMAL.replace("position", "fov_deg = -5\nposition")).unwrap();
+    let err = Scene::from_file(&path).unwrap_err().to_string();
+    assert!(
+        err.contains("broken.toml") && err.contains("camera.fov_deg"),
+        "{err}"
+    );
+    let missing = Scene::from_file(&dir.path().join("missing.toml"))
+        .unwrap_err()
+        .to_string();
+    assert!(missing.contains("missing.toml"), "{missing}");
+    std::fs::write(&path, "[volume\nphantom = 3").unwrap();
+    let err = Scene::from_file(&path).unwrap_err().to_string();
+    assert!(err.contains("broken.toml"), "{err}");
+}
