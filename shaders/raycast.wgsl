@@ -6,7 +6,6 @@
 const PI: f32 = 3.14159265358979;
 const BACKGROUND_DEPTH: f32 = 1.0e10;
 const MAX_LIGHTS: u32 = 8u;
-const LUT_STRIDE: u32 = 8u;
 
 struct Light {
     // x: 1 directional, 2 point (ambient lights are summed into `ambient`).
@@ -47,7 +46,7 @@ struct Optical {
 @group(0) @binding(0) var<uniform> params: Params;
 @group(0) @binding(1) var volume: texture_3d<f32>;
 @group(0) @binding(2) var volume_sampler: sampler;
-@group(0) @binding(3) var<storage, read> lut: array<f32>;
+@group(0) @binding(3) var<storage, read> lut: array<vec4<f32>>;
 @group(0) @binding(4) var<storage, read_write> out_rgba: array<vec4<f32>>;
 @group(0) @binding(5) var<storage, read_write> out_depth: array<f32>;
 
@@ -69,11 +68,19 @@ fn lut_coord(x: f32, lo: f32, hi: f32, n: f32) -> vec3<f32> {
     return vec3<f32>(i0, i1, u - i0);
 }
 
-fn lut_add(acc: ptr<function, array<f32, 7>>, i: f32, j: f32, w: f32) {
-    let base = (u32(i) + u32(params.lut_size.x) * u32(j)) * LUT_STRIDE;
-    for (var c = 0u; c < 7u; c = c + 1u) {
-        (*acc)[c] = (*acc)[c] + w * lut[base + c];
+// Entry (i, j) of the table: two vec4s, (sigma_t, albedo) and (emission, unused).
+fn lut_entry(i: f32, j: f32, half: u32) -> vec4<f32> {
+    return lut[(u32(i) + u32(params.lut_size.x) * u32(j)) * 2u + half];
+}
+
+// Bilinear blend of one half of the four neighbouring entries (a 1D table has j0 = j1 = 0).
+fn lut_blend(cv: vec3<f32>, cg: vec3<f32>, half: u32) -> vec4<f32> {
+    let row0 = mix(lut_entry(cv.x, cg.x, half), lut_entry(cv.y, cg.x, half), cv.z);
+    if (cg.z == 0.0) {
+        return row0;
     }
+    let row1 = mix(lut_entry(cv.x, cg.y, half), lut_entry(cv.y, cg.y, half), cv.z);
+    return mix(row0, row1, cg.z);
 }
 
 fn lookup(v: f32, g: f32) -> Optical {
@@ -82,12 +89,9 @@ fn lookup(v: f32, g: f32) -> Optical {
     if (params.lut_range.z > 0.0) {
         cg = lut_coord(g, 0.0, params.lut_range.z, params.lut_size.y);
     }
-    var acc = array<f32, 7>(0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0);
-    lut_add(&acc, cv.x, cg.x, (1.0 - cv.z) * (1.0 - cg.z));
-    lut_add(&acc, cv.y, cg.x, cv.z * (1.0 - cg.z));
-    lut_add(&acc, cv.x, cg.y, (1.0 - cv.z) * cg.z);
-    lut_add(&acc, cv.y, cg.y, cv.z * cg.z);
-    return Optical(acc[0], vec3<f32>(acc[1], acc[2], acc[3]), vec3<f32>(acc[4], acc[5], acc[6]));
+    let a = lut_blend(cv, cg, 0u);
+    let b = lut_blend(cv, cg, 1u);
+    return Optical(a.x, a.yzw, b.xyz);
 }
 
 // Unit direction towards light l and the irradiance it delivers at p (as lights::incident).

@@ -12,17 +12,29 @@ pub use loaders::{load, load_with_info, LoadOptions, NonFinite, RawSpec, ScalarT
 
 use crate::error::{Error, Result};
 use glam::Vec3;
+use std::sync::OnceLock;
 
 /// Largest volume the loaders allocate by default, in bytes of f32 values (8 GiB).
 pub const DEFAULT_MEMORY_BUDGET: u64 = 8 << 30;
 
 /// A dense scalar volume in world units.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug)]
 pub struct Volume {
     dims: [usize; 3],
     spacing: Vec3,
     origin: Vec3,
     values: Vec<f32>,
+    /// Largest gradient magnitude, computed on first use (the volume never changes).
+    max_gradient: OnceLock<f32>,
+}
+
+impl PartialEq for Volume {
+    fn eq(&self, other: &Self) -> bool {
+        self.dims == other.dims
+            && self.spacing == other.spacing
+            && self.origin == other.origin
+            && self.values == other.values
+    }
 }
 
 impl Volume {
@@ -61,6 +73,7 @@ impl Volume {
             spacing,
             origin,
             values,
+            max_gradient: OnceLock::new(),
         })
     }
 
@@ -183,25 +196,36 @@ impl Volume {
         Vec3::new(dx, dy, dz) / (2.0 * self.spacing)
     }
 
-    /// Largest gradient magnitude over the voxel centres (used to normalise 2D transfer
-    /// functions and the gradient-shading threshold).
+    /// Largest gradient magnitude over the voxel centres (normalises 2D transfer functions and
+    /// the gradient-shading threshold). Computed once; at a centre, `gradient`'s samples one
+    /// voxel away are the neighbouring voxels (clamped at the faces), so it reads them directly.
     pub fn max_gradient_magnitude(&self) -> f32 {
-        use rayon::prelude::*;
-        let [nx, ny, nz] = self.dims;
-        (0..nz)
-            .into_par_iter()
-            .map(|k| {
-                let mut best = 0.0f32;
-                for j in 0..ny {
-                    for i in 0..nx {
-                        let c = Vec3::new(i as f32, j as f32, k as f32);
-                        let p = self.origin + c * self.spacing;
-                        best = best.max(self.gradient(p).length());
+        *self.max_gradient.get_or_init(|| {
+            use rayon::prelude::*;
+            let [nx, ny, nz] = self.dims;
+            let inv = 0.5 / self.spacing;
+            (0..nz)
+                .into_par_iter()
+                .map(|k| {
+                    let (k0, k1) = (k.saturating_sub(1), (k + 1).min(nz - 1));
+                    let mut best = 0.0f32;
+                    for j in 0..ny {
+                        let (j0, j1) = (j.saturating_sub(1), (j + 1).min(ny - 1));
+                        for i in 0..nx {
+                            let (i0, i1) = (i.saturating_sub(1), (i + 1).min(nx - 1));
+                            let g = Vec3::new(
+                                self.at(i1, j, k) - self.at(i0, j, k),
+                                self.at(i, j1, k) - self.at(i, j0, k),
+                                self.at(i, j, k1) - self.at(i, j, k0),
+                            ) * inv;
+                            best = best.max(g.length_squared());
+                        }
                     }
-                }
-                best
-            })
-            .reduce(|| 0.0, f32::max)
+                    best
+                })
+                .reduce(|| 0.0, f32::max)
+                .sqrt()
+        })
     }
 
     /// Counts of values in `bins` equal-width bins over the value range.
@@ -287,6 +311,27 @@ mod tests {
         assert!((v.sample(p) - (2.0 * 0.3 + 3.0 * 2.7 - 6.1)).abs() < 1e-5);
         let g = v.gradient(p);
         assert!((g - Vec3::new(2.0, 3.0, -1.0)).length() < 1e-4, "{g}");
+    }
+
+    #[test]
+    fn max_gradient_matches_the_sampled_gradient() {
+        let v = Volume::from_fn([9, 7, 5], Vec3::new(0.5, 1.0, 2.0), Vec3::ZERO, |p| {
+            (p.x * 1.3).sin() * p.y + p.z * p.z
+        })
+        .unwrap();
+        let mut best = 0.0f32;
+        for k in 0..5 {
+            for j in 0..7 {
+                for i in 0..9 {
+                    let p = Vec3::new(i as f32 * 0.5, j as f32, k as f32 * 2.0);
+                    best = best.max(v.gradient(p).length());
+                }
+            }
+        }
+        assert!(
+            (v.max_gradient_magnitude() - best).abs() <= 1e-5 * best,
+            "{best}"
+        );
     }
 
     #[test]

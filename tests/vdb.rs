@@ -1,0 +1,213 @@
+//! The OpenVDB writer and loader: files written by Occlux read back with vdb-rs directly and
+//! through `occlux::volume::load`, values and transforms equal; bad files are clear errors.
+
+use glam::Vec3;
+use occlux::export::vdb::{write_vdb, Compression, VdbGrid, VdbOptions};
+use occlux::volume::{load, LoadOptions, Volume};
+use std::collections::HashMap;
+use std::path::Path;
+
+/// A sparse field: a ball of varying density in a larger empty box, spanning several leaves
+/// and (at 150 voxels) more than one 128^3 internal node along x.
+fn ball(dims: [usize; 3], spacing: Vec3, origin: Vec3) -> Volume {
+    Volume::from_fn(dims, spacing, origin, |p| {
+        let q = (p - origin) / spacing - Vec3::new(100.0, 12.0, 9.0);
+        let r = q.length();
+        if r < 8.0 {
+            1.0 + 0.01 * q.x + 0.002 * q.y * q.z
+        } else {
+            0.0
+        }
+    })
+    .unwrap()
+}
+
+fn read_with_vdb_rs(path: &Path, name: &str) -> (HashMap<[i32; 3], f32>, [f64; 3], [f64; 3]) {
+    let file = std::io::BufReader::new(std::fs::File::open(path).unwrap());
+    let mut reader = vdb_rs::VdbReader::new(file).unwrap();
+    let grid = reader.read_grid::<f32>(name).unwrap();
+    let voxels = grid
+        .iter()
+        .map(|(p, v, level)| {
+            assert!(level == vdb_rs::VdbLevel::Voxel, "no tiles expected");
+            ([p.x as i32, p.y as i32, p.z as i32], v)
+        })
+        .collect();
+    match grid.transform {
+        vdb_rs::Map::ScaleTranslateMap {
+            scale_values,
+            translation,
+            ..
+        } => (voxels, scale_values.to_array(), translation.to_array()),
+        _ => panic!("expected a scale-translate map"),
+    }
+}
+
+#[test]
+fn vdb_rs_reads_back_values_and_transform() {
+    let dims = [150, 30, 20];
+    let spacing = Vec3::new(0.5, 0.25, 2.0);
+    let origin = Vec3::new(-3.0, 1.5, 10.0);
+    let volume = ball(dims, spacing, origin);
+    let dir = tempfile::tempdir().unwrap();
+    for compression in [Compression::None, Compression::Zip] {
+        let path = dir.path().join(format!("ball-{compression:?}.vdb"));
+        write_vdb(
+            &path,
+            &[VdbGrid::from_volume("density", &volume)],
+            &VdbOptions { compression },
+        )
+        .unwrap();
+        let (voxels, scale, translation) = read_with_vdb_rs(&path, "density");
+        assert_eq!(scale, spacing.as_dvec3().to_array());
+        assert_eq!(translation, origin.as_dvec3().to_array());
+        let nonzero = volume.values().iter().filter(|v| **v != 0.0).count();
+        assert_eq!(
+            voxels.len(),
+            nonzero,
+            "exactly the non-background voxels are active"
+        );
+        for (&[i, j, k], &v) in &voxels {
+            assert_eq!(v, volume.at(i as usize, j as usize, k as usize));
+        }
+    }
+}
+
+#[test]
+fn occlux_loads_what_it_wrote_at_the_same_world_positions() {
+    let volume = ball(
+        [150, 30, 20],
+        Vec3::new(0.5, 0.25, 2.0),
+        Vec3::new(-3.0, 1.5, 10.0),
+    );
+    let shells = occlux::volume::phantom::shells(24).unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("two.vdb");
+    write_vdb(
+        &path,
+        &[
+            VdbGrid::from_volume("shells", &shells),
+            VdbGrid::from_volume("density", &volume),
+        ],
+        &VdbOptions::default(),
+    )
+    .unwrap();
+    // The default is the grid named density; the dense box is the active voxels' box.
+    let back = load(&path, &LoadOptions::default()).unwrap();
+    let (lo, hi) = back.bounds();
+    for k in 0..back.dims()[2] {
+        for j in 0..back.dims()[1] {
+            for i in 0..back.dims()[0] {
+                let p = back.origin() + Vec3::new(i as f32, j as f32, k as f32) * back.spacing();
+                let src = volume.to_index(p).round();
+                let want = volume.at(src.x as usize, src.y as usize, src.z as usize);
+                assert_eq!(back.at(i, j, k), want, "voxel {i} {j} {k}");
+            }
+        }
+    }
+    assert!(
+        lo.x > volume.bounds().0.x,
+        "the empty margin is not part of the dense box"
+    );
+    assert!(hi.x < volume.bounds().1.x);
+    // A named grid: the shells phantom, whose active box is the whole cube less empty corners.
+    let opts = LoadOptions {
+        grid: Some("shells".into()),
+        ..LoadOptions::default()
+    };
+    let back = load(&path, &opts).unwrap();
+    assert_eq!(back.spacing(), shells.spacing());
+    let c = back.origin() + 5.0 * back.spacing();
+    assert_eq!(back.sample(c), shells.sample(c));
+}
+
+#[test]
+fn bad_files_and_grids_are_clear_errors() {
+    let dir = tempfile::tempdir().unwrap();
+    let volume = occlux::volume::phantom::sphere(16, 0.5).unwrap();
+    let path = dir.path().join("s.vdb");
+    write_vdb(
+        &path,
+        &[VdbGrid::from_volume("s", &volume)],
+        &VdbOptions::default(),
+    )
+    .unwrap();
+    let missing = LoadOptions {
+        grid: Some("density".into()),
+        ..LoadOptions::default()
+    };
+    let err = load(&path, &missing).unwrap_err().to_string();
+    assert!(
+        err.contains("no grid named 'density'") && err.contains("s"),
+        "{err}"
+    );
+
+    let bytes = std::fs::read(&path).unwrap();
+    let cut = dir.path().join("cut.vdb");
+    std::fs::write(&cut, &bytes[..bytes.len() / 2]).unwrap();
+    let err = load(&cut, &LoadOptions::default()).unwrap_err().to_string();
+    assert!(err.contains("cut.vdb"), "{err}");
+    let junk = dir.path().join("junk.vdb");
+    std::fs::write(&junk, b"definitely not a vdb file").unwrap();
+    let err = load(&junk, &LoadOptions::default())
+        .unwrap_err()
+        .to_string();
+    assert!(err.contains("junk.vdb") && err.contains("magic"), "{err}");
+
+    let empty = Volume::new([4, 4, 4], Vec3::ONE, Vec3::ZERO, vec![0.0; 64]).unwrap();
+    let empty_path = dir.path().join("empty.vdb");
+    write_vdb(
+        &empty_path,
+        &[VdbGrid::from_volume("density", &empty)],
+        &VdbOptions::default(),
+    )
+    .unwrap();
+    let err = load(&empty_path, &LoadOptions::default())
+        .unwrap_err()
+        .to_string();
+    assert!(err.contains("no active voxels"), "{err}");
+
+    let tight = LoadOptions {
+        memory_budget: 100,
+        ..LoadOptions::default()
+    };
+    let err = load(&path, &tight).unwrap_err().to_string();
+    assert!(err.contains("memory budget"), "{err}");
+}
+
+#[test]
+fn the_writer_refuses_bad_grids_and_leaves_nothing() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("bad.vdb");
+    let mut values = vec![1.0f32; 8];
+    let grid = |name: &'static str, values: &'static [f32]| VdbGrid {
+        name,
+        dims: [2, 2, 2],
+        spacing: Vec3::ONE,
+        origin: Vec3::ZERO,
+        values,
+        background: 0.0,
+    };
+    let ok: &'static [f32] = &[1.0; 8];
+    for (grids, what) in [
+        (vec![grid("", ok)], "non-empty"),
+        (vec![grid("a\nb", ok)], "printable"),
+        (vec![grid("a", ok), grid("a", ok)], "two grids"),
+        (vec![grid("a", &[1.0; 7])], "do not match"),
+    ] {
+        let err = write_vdb(&path, &grids, &VdbOptions::default())
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains(what), "{err}");
+    }
+    values[3] = f32::NAN;
+    let nan = VdbGrid {
+        values: &values,
+        ..grid("n", ok)
+    };
+    let err = write_vdb(&path, &[nan], &VdbOptions::default())
+        .unwrap_err()
+        .to_string();
+    assert!(err.contains("not finite"), "{err}");
+    assert!(std::fs::read_dir(dir.path()).unwrap().next().is_none());
+}
