@@ -80,13 +80,6 @@ impl Lut {
     pub fn data(&self) -> &[f32] {
         &self.data
     }
-    /// Whether any entry emits light (lets renderers skip the emission term).
-    pub fn has_emission(&self) -> bool {
-        self.data
-            .chunks_exact(LUT_STRIDE)
-            .any(|e| e[4] != 0.0 || e[5] != 0.0 || e[6] != 0.0)
-    }
-
     /// Continuous table coordinate along an axis of `n` entries for `x` in [lo, hi].
     #[inline]
     fn coord(x: f32, lo: f32, hi: f32, n: usize) -> (usize, usize, f32) {

@@ -3,13 +3,12 @@
 //! printed as a table and written as JSON.
 
 use crate::error::{Error, Result};
-use crate::export::atomic::write_atomic;
+use crate::export::atomic::write_bytes_atomic;
 use crate::gpu::{Compute, DeviceChoice};
 use crate::progress::NoProgress;
 use crate::render::raycast::{cpu, gpu, GradientShading, RaycastInput, RaycastParams, Shading};
 use crate::scene::{Scene, SourceKind};
 use serde::Serialize;
-use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -163,10 +162,7 @@ pub fn run(args: &BenchArgs, quiet: bool) -> Result<()> {
     };
     let json =
         serde_json::to_string_pretty(&report).map_err(|e| Error::param("bench", e.to_string()))?;
-    write_atomic(&args.out, |w| {
-        w.write_all(json.as_bytes())
-            .map_err(|e| Error::io(&args.out, e))
-    })?;
+    write_bytes_atomic(&args.out, json.as_bytes())?;
     if !quiet {
         println!("wrote {}", args.out.display());
     }
