@@ -34,6 +34,7 @@ struct Params {
     march: vec4<f32>,          // step, ERT threshold, normal threshold, shading (0 unshaded, 1 gradient)
     phong: vec4<f32>,          // specular, shininess, light count, unused
     band: vec4<f32>,           // first row of this dispatch, rows in it
+    cells: vec4<f32>,          // occupancy cells along x, y, z; voxels per cell
     lights: array<Light, 8>,
 };
 
@@ -49,6 +50,33 @@ struct Optical {
 @group(0) @binding(3) var<storage, read> lut: array<vec4<f32>>;
 @group(0) @binding(4) var<storage, read_write> out_rgba: array<vec4<f32>>;
 @group(0) @binding(5) var<storage, read_write> out_depth: array<f32>;
+@group(0) @binding(6) var<storage, read> occupancy: array<u32>;
+
+// The occupancy cell holding index coordinate c (Occupancy::cell_of).
+fn cell_of(c: vec3<f32>) -> vec3<u32> {
+    let cell = floor(max(c, vec3<f32>(0.0)) / params.cells.w);
+    return vec3<u32>(min(cell, params.cells.xyz - 1.0));
+}
+
+fn occupied(cell: vec3<u32>) -> bool {
+    let n = vec3<u32>(params.cells.xyz);
+    return occupancy[cell.x + n.x * (cell.y + n.y * cell.z)] != 0u;
+}
+
+// Where the ray (index coordinates c0 + t dc) leaves the cell; outermost cells are unbounded
+// (Occupancy::exit).
+fn cell_exit(cell: vec3<u32>, c0: vec3<f32>, dc: vec3<f32>) -> f32 {
+    let n = vec3<u32>(params.cells.xyz);
+    var t = 3.0e38;
+    for (var a = 0u; a < 3u; a = a + 1u) {
+        if (dc[a] > 0.0 && cell[a] + 1u < n[a]) {
+            t = min(t, (f32(cell[a] + 1u) * params.cells.w - c0[a]) / dc[a]);
+        } else if (dc[a] < 0.0 && cell[a] > 0u) {
+            t = min(t, (f32(cell[a]) * params.cells.w - c0[a]) / dc[a]);
+        }
+    }
+    return t;
+}
 
 fn sample_at(p: vec3<f32>) -> f32 {
     let c = (p - params.vol_origin.xyz) / params.vol_spacing.xyz;
@@ -197,10 +225,27 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
     var radiance = vec3<f32>(0.0);
     var transmittance = 1.0;
     var depth = BACKGROUND_DEPTH;
-    for (var k = 0u; k < steps; k = k + 1u) {
+    let index_origin = (origin - params.vol_origin.xyz) / params.vol_spacing.xyz;
+    let index_dir = dir / params.vol_spacing.xyz;
+    var k = 0u;
+    loop {
+        if (k >= steps) {
+            break;
+        }
         let ta = span.x + f32(k) * step;
         let dt = min(span.y - ta, step);
         let p = origin + (ta + 0.5 * dt) * dir;
+        let cell = cell_of((p - params.vol_origin.xyz) / params.vol_spacing.xyz);
+        if (!occupied(cell)) {
+            // Resume at the first step whose midpoint lies at or beyond the cell's exit.
+            let next = ceil((cell_exit(cell, index_origin, index_dir) - span.x) / step - 0.5);
+            if (!(next < f32(steps))) {
+                break;
+            }
+            k = max(u32(next), k + 1u);
+            continue;
+        }
+        k = k + 1u;
         let value = sample_at(p);
         var grad = vec3<f32>(0.0);
         if (table_2d) {

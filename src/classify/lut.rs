@@ -80,6 +80,21 @@ impl Lut {
     pub fn data(&self) -> &[f32] {
         &self.data
     }
+    /// Whether any value in [lo, hi] (at any gradient magnitude) can have non-zero extinction
+    /// or emission: checks every entry that linear interpolation over that range touches.
+    pub fn may_contribute(&self, lo: f32, hi: f32) -> bool {
+        let [vmin, vmax] = self.value_range;
+        let (first, _, _) = Self::coord(lo, vmin, vmax, self.size[0]);
+        let (last0, last1, f) = Self::coord(hi, vmin, vmax, self.size[0]);
+        let last = if f > 0.0 { last1 } else { last0 };
+        (0..self.size[1]).any(|j| {
+            (first..=last).any(|i| {
+                let e = self.entry(i, j);
+                e[0] != 0.0 || e[4] != 0.0 || e[5] != 0.0 || e[6] != 0.0
+            })
+        })
+    }
+
     /// Continuous table coordinate along an axis of `n` entries for `x` in [lo, hi].
     #[inline]
     fn coord(x: f32, lo: f32, hi: f32, n: usize) -> (usize, usize, f32) {

@@ -1,5 +1,6 @@
 //! Renderers. Each method has a CPU twin and a GPU twin that give the same image.
 
+pub mod occupancy;
 pub mod raycast;
 
 /// Depth written where a ray never reaches 50 % opacity (the value Blender writes for background).

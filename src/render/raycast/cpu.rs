@@ -6,6 +6,7 @@ use crate::classify::Optical;
 use crate::error::Result;
 use crate::lights::{incident, Light};
 use crate::progress::Progress;
+use crate::render::occupancy::Occupancy;
 use crate::render::{RenderImage, BACKGROUND_DEPTH};
 use glam::Vec3;
 use rayon::prelude::*;
@@ -15,6 +16,7 @@ use std::sync::atomic::{AtomicU64, Ordering};
 /// Renders the image on the CPU.
 pub fn render(input: &RaycastInput, progress: &dyn Progress) -> Result<RenderImage> {
     let setup = input.setup()?;
+    let occupancy = Occupancy::build(input.volume, input.lut);
     let cam = input.camera;
     let mut img = RenderImage::new(cam.width, cam.height);
     let width = cam.width as usize;
@@ -25,7 +27,7 @@ pub fn render(input: &RaycastInput, progress: &dyn Progress) -> Result<RenderIma
         .enumerate()
         .for_each(|(j, (rgba_row, depth_row))| {
             for (i, (rgba, depth)) in rgba_row.iter_mut().zip(depth_row).enumerate() {
-                (*rgba, *depth) = march(input, &setup, &cam.ray(i as u32, j as u32));
+                (*rgba, *depth) = march(input, &setup, &occupancy, &cam.ray(i as u32, j as u32));
             }
             let done = rows_done.fetch_add(1, Ordering::Relaxed) + 1;
             progress.update(done, cam.height as u64);
@@ -33,8 +35,13 @@ pub fn render(input: &RaycastInput, progress: &dyn Progress) -> Result<RenderIma
     Ok(img)
 }
 
-/// Marches one ray front to back; returns (RGBA, depth).
-pub fn march(input: &RaycastInput, setup: &RaycastSetup, ray: &Ray) -> ([f32; 4], f32) {
+/// Marches one ray front to back, jumping over empty cells; returns (RGBA, depth).
+pub fn march(
+    input: &RaycastInput,
+    setup: &RaycastSetup,
+    occupancy: &Occupancy,
+    ray: &Ray,
+) -> ([f32; 4], f32) {
     let background = input.lighting.background;
     let (lo, hi) = input.volume.bounds();
     let Some((t_near, t_far)) = intersect_box(ray, lo, hi) else {
@@ -56,10 +63,27 @@ pub fn march(input: &RaycastInput, setup: &RaycastSetup, ray: &Ray) -> ([f32; 4]
     let mut radiance = Vec3::ZERO;
     let mut transmittance = 1.0f32;
     let mut depth = BACKGROUND_DEPTH;
-    for k in 0..steps {
+    // The ray in index coordinates, for cell exits.
+    let index_origin = volume.to_index(ray.origin);
+    let index_dir = ray.dir / volume.spacing();
+    let mut k = 0;
+    while k < steps {
         let ta = t_near + k as f32 * step;
         let dt = (t_far - ta).min(step);
         let p = ray.origin + (ta + 0.5 * dt) * ray.dir;
+        let cell = occupancy.cell_of(volume.to_index(p));
+        if !occupancy.occupied(cell) {
+            // Resume at the first step whose midpoint lies at or beyond the cell's exit.
+            let t_exit = occupancy.exit(cell, index_origin, index_dir);
+            let next = ((t_exit - t_near) / step - 0.5).ceil();
+            // An unbounded (or NaN) exit leaves nothing to march.
+            if next.is_nan() || next >= steps as f32 {
+                break;
+            }
+            k = (next as u32).max(k + 1);
+            continue;
+        }
+        k += 1;
         let value = volume.sample(p);
         let mut grad = if table_2d {
             volume.gradient(p)
@@ -137,6 +161,66 @@ fn in_scattered(
                 specular += e * (w * g.specular * lobe);
             }
             optical.albedo * diffuse + specular
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::camera::{Camera, Projection};
+    use crate::classify::presets::preset;
+    use crate::lights::Lighting;
+    use crate::render::raycast::{GradientShading, RaycastParams};
+    use crate::volume::phantom;
+
+    #[test]
+    fn skipping_empty_cells_changes_no_pixel() {
+        let camera = Camera::look_at(
+            Vec3::new(2.5, -3.0, 1.5),
+            Vec3::ZERO,
+            Vec3::Z,
+            Projection::Perspective { fov_y: 0.7 },
+            40,
+            40,
+        )
+        .unwrap();
+        let lighting = Lighting {
+            lights: vec![Light::Ambient {
+                radiance: Vec3::ONE,
+            }],
+            background: Vec3::splat(0.1),
+        };
+        for (volume, name) in [
+            (phantom::ct(40).unwrap(), "ct-bone"),
+            (phantom::shells(40).unwrap(), "boundary-2d"),
+        ] {
+            let lut = preset(name).unwrap().bake(&volume);
+            let params = RaycastParams {
+                shading: Shading::Gradient(GradientShading::default()),
+                ..RaycastParams::default()
+            };
+            let input = RaycastInput {
+                volume: &volume,
+                lut: &lut,
+                camera: &camera,
+                lighting: &lighting,
+                params: &params,
+            };
+            let setup = input.setup().unwrap();
+            let built = Occupancy::build(&volume, &lut);
+            let full = Occupancy::everywhere(&volume);
+            assert!(built.flags().contains(&0), "{name}: nothing to skip");
+            for j in 0..40 {
+                for i in 0..40 {
+                    let ray = camera.ray(i, j);
+                    assert_eq!(
+                        march(&input, &setup, &built, &ray),
+                        march(&input, &setup, &full, &ray),
+                        "{name}: pixel ({i}, {j})"
+                    );
+                }
+            }
         }
     }
 }

@@ -7,6 +7,7 @@ use crate::error::Result;
 use crate::gpu::{buffer, shader, GpuContext, VolumeTexture};
 use crate::lights::{Light, MAX_LIGHTS};
 use crate::progress::Progress;
+use crate::render::occupancy::{Occupancy, CELL};
 use crate::render::RenderImage;
 use crate::volume::Volume;
 use bytemuck::{Pod, Zeroable};
@@ -47,25 +48,32 @@ struct Params {
     march: Vec4,
     phong: Vec4,
     band: Vec4,
+    cells: Vec4,
     lights: [GpuLight; MAX_LIGHTS],
 }
 
-/// A volume and its classification table resident on the GPU, reusable across renders.
+/// A volume, its classification table and its occupancy grid resident on the GPU, reusable
+/// across renders.
 pub struct GpuVolume<'a> {
     volume: &'a Volume,
     lut: &'a Lut,
     texture: VolumeTexture,
     lut_buffer: wgpu::Buffer,
+    cells: [usize; 3],
+    occupancy_buffer: wgpu::Buffer,
 }
 
 impl<'a> GpuVolume<'a> {
-    /// Uploads the volume (3D texture) and the table (storage buffer).
+    /// Uploads the volume (3D texture), the table and the occupancy grid (storage buffers).
     pub fn upload(ctx: &GpuContext, volume: &'a Volume, lut: &'a Lut) -> Result<Self> {
+        let occupancy = Occupancy::build(volume, lut);
         Ok(Self {
             volume,
             lut,
             texture: VolumeTexture::upload(ctx, volume)?,
             lut_buffer: buffer::storage_buffer(ctx, "classification table", lut.data())?,
+            cells: occupancy.cells(),
+            occupancy_buffer: buffer::storage_buffer(ctx, "occupancy", occupancy.flags())?,
         })
     }
 }
@@ -100,7 +108,7 @@ pub fn render_uploaded(
     // Bytes per row of output: RGBA f32 plus depth f32.
     let max_rows = (ctx.limits.max_storage_buffer_binding_size / (width as u64 * 16)).max(1) as u32;
     let band_rows = height.div_ceil(MIN_BANDS).clamp(1, max_rows);
-    let mut params = params(&input, &setup);
+    let mut params = params(&input, &setup, uploaded.cells);
     let mut row0 = 0;
     while row0 < height {
         let rows = band_rows.min(height - row0);
@@ -119,6 +127,7 @@ pub fn render_uploaded(
                 uploaded.lut_buffer.as_entire_binding(),
                 rgba.as_entire_binding(),
                 depth.as_entire_binding(),
+                uploaded.occupancy_buffer.as_entire_binding(),
             ],
         )?;
         shader::dispatch(
@@ -136,7 +145,7 @@ pub fn render_uploaded(
     Ok(img)
 }
 
-fn params(input: &RaycastInput, setup: &RaycastSetup) -> Params {
+fn params(input: &RaycastInput, setup: &RaycastSetup, cells: [usize; 3]) -> Params {
     let cam = input.camera;
     let (hx, hy) = cam.half_extent();
     let volume = input.volume;
@@ -195,6 +204,12 @@ fn params(input: &RaycastInput, setup: &RaycastSetup) -> Params {
         ),
         phong: Vec4::new(specular, shininess, count as f32, 0.0),
         band: Vec4::ZERO,
+        cells: Vec4::new(
+            cells[0] as f32,
+            cells[1] as f32,
+            cells[2] as f32,
+            CELL as f32,
+        ),
         lights,
     }
 }
