@@ -3,6 +3,7 @@
 //!
 //! Data flows one way: [`volume`] (load) -> [`classify`] -> [`render`] -> [`export`].
 
+pub mod ao;
 pub mod camera;
 pub mod classify;
 pub mod error;

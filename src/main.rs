@@ -2,12 +2,16 @@
 
 use clap::{Parser, Subcommand};
 use indicatif::{ProgressBar, ProgressStyle};
+use occlux::ao::reference::{ao_reference, AoReferenceParams, AoVariant};
 use occlux::eval::bench;
 use occlux::export::exr::Precision;
+use occlux::export::vdb::{write_vdb, Compression, VdbGrid, VdbOptions};
 use occlux::gpu::{Compute, DeviceChoice};
 use occlux::pipeline::{self, OutputOptions};
+use occlux::render::reference::{Estimator, ReferenceInput, ReferenceParams};
+use occlux::render::RenderImage;
 use occlux::scene::Scene;
-use occlux::volume::{self, LoadOptions, RawSpec, ScalarType};
+use occlux::volume::{self, LoadOptions, RawSpec, ScalarType, Volume};
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::time::Instant;
@@ -39,6 +43,22 @@ enum Command {
         #[command(flatten)]
         output: OutputArgs,
     },
+    /// Render a scene and write its exchange files into OUT/: the render (EXR + PNG), the grids
+    /// (VDB: `density` = extinction per scene unit, `value` = the volume's values) and a USD stage
+    /// pointing at them with the scene's camera and lights.
+    Export {
+        scene: PathBuf,
+        #[arg(short, long, default_value = "occlux-out")]
+        out: PathBuf,
+        #[command(flatten)]
+        output: OutputArgs,
+        /// VDB value compression on top of active-mask compression.
+        #[arg(long, value_enum, default_value = "zip")]
+        compression: VdbCompression,
+        /// Store VDB values as half floats.
+        #[arg(long)]
+        half: bool,
+    },
     /// Describe a volume file: dims, type, spacing, value range, histogram.
     Info {
         file: PathBuf,
@@ -64,6 +84,84 @@ enum Command {
     },
     /// Time unshaded and gradient DVR on CPU and GPU (median after warm-up); table and JSON.
     Bench(bench::BenchArgs),
+    /// Monte Carlo reference of the scene (CPU): OUT/STEM-ESTIMATOR.exr (float32 layers beauty
+    /// = per-pixel mean, stderr = its standard error) and a PNG preview.
+    Reference {
+        scene: PathBuf,
+        /// ambient: AO, isotropic; cone: the DOS cone phase function; single: directional and
+        /// point lights with exact shadows; multiple: all lights, random walk.
+        #[arg(long, value_enum)]
+        estimator: EstimatorName,
+        /// Samples per pixel.
+        #[arg(long, default_value_t = 256)]
+        spp: u32,
+        #[arg(long, default_value_t = 1)]
+        seed: u64,
+        /// Scatterings after the first (multiple only; Cycles' volume bounces).
+        #[arg(long, default_value_t = 8)]
+        bounces: u32,
+        /// Henyey-Greenstein asymmetry (single and multiple).
+        #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
+        g: f32,
+        /// Half-angle of the cone in degrees (cone only).
+        #[arg(long, default_value_t = 30.0)]
+        aperture_deg: f32,
+        #[arg(short, long, default_value = "occlux-out")]
+        out: PathBuf,
+        /// Exposure multiplier for the PNG preview.
+        #[arg(long, default_value_t = 1.0)]
+        exposure: f32,
+    },
+    /// Monte Carlo reference AO volume of the scene's classified volume: OUT/STEM-ao-VARIANT.vdb
+    /// with grids `ao` (openness, 1 = unoccluded) and `ao_stderr` (its standard error).
+    AoReference {
+        scene: PathBuf,
+        #[arg(long, value_enum, default_value = "sphere")]
+        variant: AoVariantName,
+        /// Samples per voxel.
+        #[arg(long, default_value_t = 64)]
+        samples: u32,
+        /// Reach of occluders, or the tangent sphere's radius, in voxels of the smallest spacing.
+        #[arg(long)]
+        radius: Option<f32>,
+        #[arg(long, default_value_t = 1)]
+        seed: u64,
+        #[arg(short, long, default_value = "occlux-out")]
+        out: PathBuf,
+    },
+    /// Compare the scene's Monte Carlo reference with Cycles (runs the Python harness
+    /// `occlux.cycles` in the venv that .ci/run creates: .venv, or $OCCLUX_PYTHON).
+    CheckCycles {
+        scene: PathBuf,
+        #[arg(long, value_enum, default_value = "single")]
+        estimator: EstimatorName,
+        /// Samples per pixel, for Occlux and for Cycles.
+        #[arg(long, default_value_t = 256)]
+        spp: u32,
+        #[arg(short, long, default_value = "occlux-check")]
+        out: PathBuf,
+    },
+}
+
+#[derive(Clone, Copy, clap::ValueEnum)]
+enum AoVariantName {
+    Sphere,
+    Hemisphere,
+    TangentSphere,
+}
+
+#[derive(Clone, Copy, clap::ValueEnum)]
+enum EstimatorName {
+    Ambient,
+    Cone,
+    Single,
+    Multiple,
+}
+
+#[derive(Clone, Copy, clap::ValueEnum)]
+enum VdbCompression {
+    None,
+    Zip,
 }
 
 #[derive(clap::Args)]
@@ -94,15 +192,42 @@ fn run(cli: Cli) -> occlux::Result<()> {
     let quiet = cli.quiet;
     match cli.command {
         Command::Render { scene, out, output } => {
-            let stem = scene
-                .file_stem()
-                .map_or("render".into(), |s| s.to_string_lossy().into_owned());
             let parsed = Scene::from_file(&scene)?;
-            render_scene(&parsed, &out, &stem, &output, quiet)
+            let options = output.options()?;
+            let (img, _) = render_scene(&parsed, &output, quiet)?;
+            let written = pipeline::write_render(&img, &parsed, &out, &stem(&scene), &options)?;
+            report_written(&written, quiet);
+            Ok(())
+        }
+        Command::Export {
+            scene,
+            out,
+            output,
+            compression,
+            half,
+        } => {
+            let parsed = Scene::from_file(&scene)?;
+            let options = output.options()?;
+            let vdb = VdbOptions {
+                compression: match compression {
+                    VdbCompression::None => Compression::None,
+                    VdbCompression::Zip => Compression::Zip,
+                },
+                half,
+            };
+            let (img, volume) = render_scene(&parsed, &output, quiet)?;
+            let written =
+                pipeline::export(&img, &parsed, &volume, &out, &stem(&scene), &options, &vdb)?;
+            report_written(&written, quiet);
+            Ok(())
         }
         Command::Demo { out, output } => {
             let scene = Scene::parse(DEMO_SCENE, Path::new("."))?;
-            render_scene(&scene, &out, "demo", &output, quiet)
+            let options = output.options()?;
+            let (img, _) = render_scene(&scene, &output, quiet)?;
+            let written = pipeline::write_render(&img, &scene, &out, "demo", &options)?;
+            report_written(&written, quiet);
+            Ok(())
         }
         Command::Info {
             file,
@@ -112,25 +237,168 @@ fn run(cli: Cli) -> occlux::Result<()> {
             grid,
         } => info(&file, raw_dims, raw_type, raw_spacing, grid),
         Command::Bench(args) => bench::run(&args, quiet),
+        Command::Reference {
+            scene,
+            estimator,
+            spp,
+            seed,
+            bounces,
+            g,
+            aperture_deg,
+            out,
+            exposure,
+        } => {
+            let estimator = match estimator {
+                EstimatorName::Ambient => Estimator::Ambient,
+                EstimatorName::Cone => Estimator::Cone {
+                    aperture: aperture_deg.to_radians(),
+                },
+                EstimatorName::Single => Estimator::Single,
+                EstimatorName::Multiple => Estimator::Multiple { bounces },
+            };
+            let params = ReferenceParams {
+                estimator,
+                spp,
+                seed,
+                g,
+            };
+            reference(&scene, &params, &out, exposure, quiet)
+        }
+        Command::AoReference {
+            scene,
+            variant,
+            samples,
+            radius,
+            seed,
+            out,
+        } => {
+            let (variant, name) = match variant {
+                AoVariantName::Sphere => (AoVariant::Sphere, "sphere"),
+                AoVariantName::Hemisphere => (AoVariant::Hemisphere, "hemisphere"),
+                AoVariantName::TangentSphere => (AoVariant::TangentSphere, "tangent-sphere"),
+            };
+            let parsed = Scene::from_file(&scene)?;
+            let volume = parsed.load_volume()?;
+            let params = AoReferenceParams {
+                variant,
+                samples,
+                seed,
+                radius: radius.map(|r| r * volume.spacing().min_element()),
+            };
+            let lut = parsed.classification.bake(&volume);
+            let bar = progress_bar(quiet, volume.dims()[2] as u64, "sampling");
+            let report = |done: u64, total: u64| {
+                bar.set_length(total);
+                bar.set_position(done);
+            };
+            let started = Instant::now();
+            let ao = ao_reference(&volume, &lut, &params, &report)?;
+            bar.finish_and_clear();
+            if !quiet {
+                println!(
+                    "{name} AO reference, {samples} samples per voxel, in {:.2} s",
+                    started.elapsed().as_secs_f64()
+                );
+            }
+            std::fs::create_dir_all(&out).map_err(|e| occlux::Error::io(&out, e))?;
+            let path = out.join(format!("{}-ao-{name}.vdb", stem(&scene)));
+            let mut grids = vec![VdbGrid::from_volume("ao", &ao.openness)];
+            // A noiseless estimate (e.g. every tangent-sphere sample tied) has no error grid.
+            if ao.stderr.values().iter().any(|&e| e > 0.0) {
+                grids.push(VdbGrid::from_volume("ao_stderr", &ao.stderr));
+            }
+            write_vdb(&path, &grids, &VdbOptions::default())?;
+            report_written(&[path], quiet);
+            Ok(())
+        }
+        Command::CheckCycles {
+            scene,
+            estimator,
+            spp,
+            out,
+        } => occlux::eval::cycles::run(&scene, estimator.as_str(), spp, &out),
     }
 }
 
-fn render_scene(
-    scene: &Scene,
+/// Renders a Monte Carlo reference with progress, and writes it.
+fn reference(
+    scene_path: &Path,
+    params: &ReferenceParams,
     out: &Path,
-    stem: &str,
-    output: &OutputArgs,
+    exposure: f32,
     quiet: bool,
 ) -> occlux::Result<()> {
-    let options = OutputOptions {
-        precision: if output.float32 {
-            Precision::Float
-        } else {
-            Precision::Half
-        },
-        exposure: output.exposure,
+    params.validate()?;
+    let scene = Scene::from_file(scene_path)?;
+    let volume = scene.load_volume()?;
+    let lut = scene.classification.bake(&volume);
+    let bar = progress_bar(quiet, scene.camera.height as u64, "sampling");
+    let report = |done: u64, total: u64| {
+        bar.set_length(total);
+        bar.set_position(done);
     };
-    options.validate()?;
+    let started = Instant::now();
+    let input = ReferenceInput {
+        volume: &volume,
+        lut: &lut,
+        camera: &scene.camera,
+        lighting: &scene.lighting,
+        params,
+    };
+    let image = occlux::render::reference::render(&input, &report)?;
+    bar.finish_and_clear();
+    if !quiet {
+        println!(
+            "{} reference, {} spp, {}x{} in {:.2} s",
+            params.estimator.name(),
+            params.spp,
+            image.width,
+            image.height,
+            started.elapsed().as_secs_f64()
+        );
+    }
+    let stem = format!("{}-{}", stem(scene_path), params.estimator.name());
+    let written = pipeline::write_reference(&image, &scene, params, out, &stem, exposure)?;
+    report_written(&written, quiet);
+    Ok(())
+}
+
+/// Output files are named after the scene file.
+fn stem(scene: &Path) -> String {
+    scene
+        .file_stem()
+        .map_or("render".into(), |s| s.to_string_lossy().into_owned())
+}
+
+fn report_written(paths: &[PathBuf], quiet: bool) {
+    if !quiet {
+        for path in paths {
+            println!("wrote {}", path.display());
+        }
+    }
+}
+
+impl OutputArgs {
+    fn options(&self) -> occlux::Result<OutputOptions> {
+        let options = OutputOptions {
+            precision: if self.float32 {
+                Precision::Float
+            } else {
+                Precision::Half
+            },
+            exposure: self.exposure,
+        };
+        options.validate()?;
+        Ok(options)
+    }
+}
+
+/// Loads the scene's volume and renders it on the chosen device, with progress.
+fn render_scene(
+    scene: &Scene,
+    output: &OutputArgs,
+    quiet: bool,
+) -> occlux::Result<(RenderImage, Volume)> {
     let (compute, notice) = Compute::resolve(output.device)?;
     if let (Some(notice), false) = (notice, quiet) {
         eprintln!("{notice}");
@@ -162,10 +430,7 @@ fn render_scene(
         img.height,
         render_start.elapsed().as_secs_f64()
     ));
-    for path in pipeline::write_render(&img, scene, out, stem, &options)? {
-        say(format!("wrote {}", path.display()));
-    }
-    Ok(())
+    Ok((img, volume))
 }
 
 fn progress_bar(quiet: bool, len: u64, label: &'static str) -> ProgressBar {
@@ -244,4 +509,15 @@ fn info(
         );
     }
     Ok(())
+}
+
+impl EstimatorName {
+    fn as_str(self) -> &'static str {
+        match self {
+            EstimatorName::Ambient => "ambient",
+            EstimatorName::Cone => "cone",
+            EstimatorName::Single => "single",
+            EstimatorName::Multiple => "multiple",
+        }
+    }
 }

@@ -3,9 +3,12 @@
 use crate::error::{Error, Result};
 use crate::export::exr::{render_layers, write_exr, Precision};
 use crate::export::png::write_png_preview;
+use crate::export::usd::{write_usda, StageDescription};
+use crate::export::vdb::{write_vdb, VdbGrid, VdbOptions};
 use crate::gpu::Compute;
 use crate::progress::Progress;
 use crate::render::raycast::{self, RaycastInput};
+use crate::render::reference::{Estimator, ReferenceImage, ReferenceParams};
 use crate::render::RenderImage;
 use crate::scene::{Method, Scene};
 use crate::volume::Volume;
@@ -86,6 +89,97 @@ pub fn write_render(
     )?;
     write_png_preview(&png_path, img, options.exposure)?;
     Ok(vec![exr_path, png_path])
+}
+
+/// Writes a Monte Carlo reference: `OUT/STEM.exr` (float32 layers `beauty`, the per-pixel
+/// mean, and `stderr`, its standard error; the scene and estimator in the header) and a PNG
+/// preview of the mean. Returns the paths written.
+pub fn write_reference(
+    image: &ReferenceImage,
+    scene: &Scene,
+    params: &ReferenceParams,
+    out_dir: &Path,
+    stem: &str,
+    exposure: f32,
+) -> Result<Vec<PathBuf>> {
+    OutputOptions {
+        precision: Precision::Float,
+        exposure,
+    }
+    .validate()?;
+    std::fs::create_dir_all(out_dir).map_err(|e| Error::io(out_dir, e))?;
+    let exr_path = out_dir.join(format!("{stem}.exr"));
+    let png_path = out_dir.join(format!("{stem}.png"));
+    let mut meta = header_metadata(scene);
+    let (g, bounces, aperture) = match params.estimator {
+        Estimator::Multiple { bounces } => (params.g, Some(bounces), None),
+        Estimator::Single => (params.g, None, None),
+        Estimator::Cone { aperture } => (0.0, None, Some(aperture.to_degrees())),
+        Estimator::Ambient => (0.0, None, None),
+    };
+    let description = serde_json::json!({
+        "estimator": params.estimator.name(),
+        "spp": params.spp,
+        "seed": params.seed,
+        "g": g,
+        "bounces": bounces,
+        "aperture_deg": aperture,
+    });
+    meta.insert("occlux/reference".into(), description.to_string());
+    write_exr(
+        &exr_path,
+        image.width,
+        image.height,
+        &image.layers(),
+        &meta,
+        Precision::Float,
+    )?;
+    write_png_preview(&png_path, &image.to_render(), exposure)?;
+    Ok(vec![exr_path, png_path])
+}
+
+/// The grids `export` writes: extinction per scene unit, and the volume's own values.
+pub const EXPORT_GRIDS: [&str; 2] = ["density", "value"];
+
+/// Writes a scene's exchange files into `out_dir`: the render (`STEM.exr`, `STEM.png`), the
+/// grids (`STEM.vdb`: `density`, the classified extinction sigma_t per scene unit, and `value`,
+/// the volume's values) and a USD stage (`STEM.usda`) whose volume points at those grids, with
+/// the scene's camera and lights. Returns the paths written.
+pub fn export(
+    img: &RenderImage,
+    scene: &Scene,
+    volume: &Volume,
+    out_dir: &Path,
+    stem: &str,
+    output: &OutputOptions,
+    vdb: &VdbOptions,
+) -> Result<Vec<PathBuf>> {
+    let vdb_name = format!("{stem}.vdb");
+    let stage = StageDescription::new(
+        &vdb_name,
+        &EXPORT_GRIDS,
+        volume.bounds(),
+        &scene.camera,
+        &scene.lighting.lights,
+    )?;
+    let extinction = scene.classification.extinction(volume)?;
+    // The grids go first: an empty or invalid grid is the likeliest failure, and it stops the
+    // export before anything is written.
+    std::fs::create_dir_all(out_dir).map_err(|e| Error::io(out_dir, e))?;
+    let vdb_path = out_dir.join(&vdb_name);
+    write_vdb(
+        &vdb_path,
+        &[
+            VdbGrid::from_volume(EXPORT_GRIDS[0], &extinction),
+            VdbGrid::from_volume(EXPORT_GRIDS[1], volume),
+        ],
+        vdb,
+    )?;
+    let usd_path = out_dir.join(format!("{stem}.usda"));
+    write_usda(&usd_path, &stage)?;
+    let mut written = write_render(img, scene, out_dir, stem, output)?;
+    written.extend([vdb_path, usd_path]);
+    Ok(written)
 }
 
 /// Camera and method parameters for the EXR header, as JSON text.

@@ -159,3 +159,130 @@ fn bad_input_fails_with_the_file_named_and_writes_nothing() {
     assert!(String::from_utf8_lossy(&run.stderr).contains("exposure"));
     assert!(!out.exists());
 }
+
+/// A small scene file beside `dir`: the sphere phantom, lit by the sky and a sun.
+fn small_scene(dir: &Path) -> std::path::PathBuf {
+    let path = dir.join("ball.toml");
+    std::fs::write(
+        &path,
+        r#"
+background = 0.1
+[volume]
+phantom = "sphere"
+size = 16
+[classification]
+points = [{ value = 0, sigma_t = 0, albedo = [0.8, 0.8, 0.8] }, { value = 1, sigma_t = 4, albedo = [0.8, 0.8, 0.8] }]
+[camera]
+position = [3, -2, 1]
+target = [0, 0, 0]
+fov_deg = 40
+width = 12
+height = 10
+[[lights]]
+type = "ambient"
+radiance = 0.5
+[[lights]]
+type = "directional"
+direction = [0, -1, 1]
+irradiance = 2
+"#,
+    )
+    .unwrap();
+    path
+}
+
+#[test]
+fn reference_writes_mean_and_standard_error_the_library_computes() {
+    use occlux::export::exr::read_exr;
+    use occlux::render::reference::{render, Estimator, ReferenceInput, ReferenceParams};
+    let dir = tempfile::tempdir().unwrap();
+    let scene_path = small_scene(dir.path());
+    let out = dir.path().join("out");
+    let run = occlux(&[
+        "reference",
+        scene_path.to_str().unwrap(),
+        "--estimator",
+        "multiple",
+        "--bounces",
+        "2",
+        "--g",
+        "-0.3",
+        "--spp",
+        "8",
+        "--seed",
+        "5",
+        "-o",
+        out.to_str().unwrap(),
+        "--quiet",
+    ]);
+    assert!(
+        run.status.success(),
+        "{}",
+        String::from_utf8_lossy(&run.stderr)
+    );
+    let exr = read_exr(&out.join("ball-multiple.exr")).unwrap();
+    let header = &exr.metadata["occlux/reference"];
+    assert!(
+        header.contains("\"bounces\":2") && header.contains("\"spp\":8"),
+        "{header}"
+    );
+
+    let scene = Scene::from_file(&scene_path).unwrap();
+    let volume = scene.load_volume().unwrap();
+    let lut = scene.classification.bake(&volume);
+    let params = ReferenceParams {
+        estimator: Estimator::Multiple { bounces: 2 },
+        spp: 8,
+        seed: 5,
+        g: -0.3,
+    };
+    let input = ReferenceInput {
+        volume: &volume,
+        lut: &lut,
+        camera: &scene.camera,
+        lighting: &scene.lighting,
+        params: &params,
+    };
+    let image = render(&input, &NoProgress).unwrap();
+    // float32 layers: the file holds exactly the library's estimate.
+    let want_mean: Vec<f32> = image.mean.iter().map(|m| m[1]).collect();
+    let want_se: Vec<f32> = image.stderr.iter().map(|s| s[1]).collect();
+    assert_eq!(
+        exr.layer("beauty").unwrap().channel("G").unwrap(),
+        want_mean
+    );
+    assert_eq!(exr.layer("stderr").unwrap().channel("G").unwrap(), want_se);
+    assert!(want_se.iter().any(|&s| s > 0.0), "the estimate is noisy");
+}
+
+#[test]
+fn reference_and_check_cycles_refuse_bad_requests() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene_path = small_scene(dir.path());
+    let scene = scene_path.to_str().unwrap();
+    let out = dir.path().join("out");
+    let run = occlux(&[
+        "reference",
+        scene,
+        "--estimator",
+        "cone",
+        "--aperture-deg",
+        "95",
+        "-o",
+        out.to_str().unwrap(),
+    ]);
+    let err = String::from_utf8_lossy(&run.stderr);
+    assert!(!run.status.success() && err.contains("aperture"), "{err}");
+    assert!(!out.exists(), "nothing is written");
+
+    let run = Command::new(env!("CARGO_BIN_EXE_occlux"))
+        .args(["check-cycles", scene, "--spp", "4"])
+        .env("OCCLUX_PYTHON", dir.path().join("no-such-python"))
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&run.stderr);
+    assert!(
+        !run.status.success() && err.contains("no-such-python"),
+        "{err}"
+    );
+}

@@ -43,6 +43,18 @@ fn read_with_vdb_rs(path: &Path, name: &str) -> (HashMap<[i32; 3], f32>, [f64; 3
     }
 }
 
+/// Every storage option: zlib or not, float32 or half. Half-float files hold each value rounded
+/// to the nearest f16.
+fn all_options() -> Vec<VdbOptions> {
+    let mut all = Vec::new();
+    for compression in [Compression::None, Compression::Zip] {
+        for half in [false, true] {
+            all.push(VdbOptions { compression, half });
+        }
+    }
+    all
+}
+
 #[test]
 fn vdb_rs_reads_back_values_and_transform() {
     let dims = [150, 30, 20];
@@ -50,14 +62,11 @@ fn vdb_rs_reads_back_values_and_transform() {
     let origin = Vec3::new(-3.0, 1.5, 10.0);
     let volume = ball(dims, spacing, origin);
     let dir = tempfile::tempdir().unwrap();
-    for compression in [Compression::None, Compression::Zip] {
-        let path = dir.path().join(format!("ball-{compression:?}.vdb"));
-        write_vdb(
-            &path,
-            &[VdbGrid::from_volume("density", &volume)],
-            &VdbOptions { compression },
-        )
-        .unwrap();
+    let mut sizes = Vec::new();
+    for options in all_options() {
+        let path = dir.path().join(format!("ball-{options:?}.vdb"));
+        write_vdb(&path, &[VdbGrid::from_volume("density", &volume)], &options).unwrap();
+        sizes.push(std::fs::metadata(&path).unwrap().len());
         let (voxels, scale, translation) = read_with_vdb_rs(&path, "density");
         assert_eq!(scale, spacing.as_dvec3().to_array());
         assert_eq!(translation, origin.as_dvec3().to_array());
@@ -65,12 +74,30 @@ fn vdb_rs_reads_back_values_and_transform() {
         assert_eq!(
             voxels.len(),
             nonzero,
-            "exactly the non-background voxels are active"
+            "exactly the non-background voxels are active ({options:?})"
         );
         for (&[i, j, k], &v) in &voxels {
-            assert_eq!(v, volume.at(i as usize, j as usize, k as usize));
+            let mut want = volume.at(i as usize, j as usize, k as usize);
+            if options.half {
+                want = half::f16::from_f32(want).to_f32();
+            }
+            assert_eq!(v, want, "{options:?}");
         }
     }
+    // Active-mask compression stores only the ~2100 active values: the uncompressed float file
+    // holds their 8.6 kB plus about 12 kB of node masks (8 kB for the top node alone) and
+    // headers, where full leaves would add another 2 kB per leaf.
+    let active = volume.values().iter().filter(|v| **v != 0.0).count() as u64;
+    assert!(
+        sizes[0] < 4 * active + 14_000,
+        "float32 file: {} bytes",
+        sizes[0]
+    );
+    assert!(
+        sizes[1] < sizes[0] - active,
+        "half floats save 2 bytes a value: {sizes:?}"
+    );
+    assert!(sizes[2] < sizes[0], "zip shrinks the file: {sizes:?}");
 }
 
 #[test]
@@ -154,19 +181,6 @@ fn bad_files_and_grids_are_clear_errors() {
         .to_string();
     assert!(err.contains("junk.vdb") && err.contains("magic"), "{err}");
 
-    let empty = Volume::new([4, 4, 4], Vec3::ONE, Vec3::ZERO, vec![0.0; 64]).unwrap();
-    let empty_path = dir.path().join("empty.vdb");
-    write_vdb(
-        &empty_path,
-        &[VdbGrid::from_volume("density", &empty)],
-        &VdbOptions::default(),
-    )
-    .unwrap();
-    let err = load(&empty_path, &LoadOptions::default())
-        .unwrap_err()
-        .to_string();
-    assert!(err.contains("no active voxels"), "{err}");
-
     let tight = LoadOptions {
         memory_budget: 100,
         ..LoadOptions::default()
@@ -208,6 +222,34 @@ fn the_writer_refuses_bad_grids_and_leaves_nothing() {
     let err = write_vdb(&path, &[nan], &VdbOptions::default())
         .unwrap_err()
         .to_string();
-    assert!(err.contains("not finite"), "{err}");
+    assert!(
+        err.contains("not finite") && err.contains("[1, 1, 0]"),
+        "{err}"
+    );
+
+    let empty = Volume::new([4, 4, 4], Vec3::ONE, Vec3::ZERO, vec![0.0; 64]).unwrap();
+    let err = write_vdb(
+        &path,
+        &[VdbGrid::from_volume("density", &empty)],
+        &VdbOptions::default(),
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(err.contains("'density'") && err.contains("empty"), "{err}");
+
+    let huge: &'static [f32] = &[1.0, 7e4, 1.0, 1.0, 1.0, 1.0, 1.0, 1.0];
+    let half = VdbOptions {
+        half: true,
+        ..VdbOptions::default()
+    };
+    let err = write_vdb(&path, &[grid("h", huge)], &half)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        err.contains("half float") && err.contains("[1, 0, 0]"),
+        "{err}"
+    );
+    write_vdb(&path, &[grid("h", huge)], &VdbOptions::default()).expect("float32 holds 7e4");
+    std::fs::remove_file(&path).unwrap();
     assert!(std::fs::read_dir(dir.path()).unwrap().next().is_none());
 }

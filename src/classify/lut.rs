@@ -80,6 +80,22 @@ impl Lut {
     pub fn data(&self) -> &[f32] {
         &self.data
     }
+    /// The largest extinction in the table: a majorant of every lookup, since lookups
+    /// interpolate between entries.
+    pub fn max_sigma_t(&self) -> f32 {
+        self.data
+            .chunks_exact(LUT_STRIDE)
+            .map(|e| e[0])
+            .fold(0.0, f32::max)
+    }
+
+    /// Whether some entry emits light where its extinction is zero (emission without matter).
+    pub fn emits_without_extinction(&self) -> bool {
+        self.data
+            .chunks_exact(LUT_STRIDE)
+            .any(|e| e[0] <= 0.0 && (e[4] > 0.0 || e[5] > 0.0 || e[6] > 0.0))
+    }
+
     /// Whether any value in [lo, hi] (at any gradient magnitude) can have non-zero extinction
     /// or emission: checks every entry that linear interpolation over that range touches.
     pub fn may_contribute(&self, lo: f32, hi: f32) -> bool {

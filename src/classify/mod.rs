@@ -99,6 +99,26 @@ impl Classification {
         self.bake_over(vmin, vmax, gmax)
     }
 
+    /// Extinction (sigma_t per world unit) at every voxel centre, as a volume on the same grid:
+    /// the density grid that other renderers read. Classifying voxels before interpolation
+    /// differs from Occlux's renders (which interpolate values, then classify) where the
+    /// transfer function changes quickly between neighbouring voxel values.
+    pub fn extinction(&self, volume: &Volume) -> Result<Volume> {
+        let lut = self.bake(volume);
+        let uses_gradient = self.uses_gradient();
+        let (origin, spacing) = (volume.origin(), volume.spacing());
+        Volume::from_fn(volume.dims(), spacing, origin, |p| {
+            let c = ((p - origin) / spacing).round();
+            let v = volume.at(c.x as usize, c.y as usize, c.z as usize);
+            let g = if uses_gradient {
+                volume.gradient(p).length()
+            } else {
+                0.0
+            };
+            lut.lookup(v, g).sigma_t
+        })
+    }
+
     /// Bakes the table over an explicit value range and gradient-magnitude maximum.
     pub fn bake_over(&self, vmin: f32, vmax: f32, gmax: f32) -> Lut {
         // A constant volume still needs a non-empty axis for interpolation.

@@ -1,2 +1,3 @@
 //! Evaluation: benchmarks and error metrics.
 pub mod bench;
+pub mod cycles;

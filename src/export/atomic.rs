@@ -25,11 +25,15 @@ pub fn write_atomic(
             ),
         ));
     }
-    let temp = tempfile::Builder::new()
-        .prefix(".occlux-")
-        .suffix(".partial")
-        .tempfile_in(dir)
-        .map_err(|e| Error::io(path, e))?;
+    let mut builder = tempfile::Builder::new();
+    builder.prefix(".occlux-").suffix(".partial");
+    // Temporary files are private (0600); outputs are ordinary files others may read.
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::PermissionsExt;
+        builder.permissions(std::fs::Permissions::from_mode(0o644));
+    }
+    let temp = builder.tempfile_in(dir).map_err(|e| Error::io(path, e))?;
     // On any error below, dropping `temp` deletes the temporary file.
     let mut writer = BufWriter::new(temp.reopen().map_err(|e| Error::io(path, e))?);
     write(&mut writer)?;
@@ -65,6 +69,16 @@ mod tests {
         assert_eq!(names.len(), 1, "temporary file left behind");
         write_bytes_atomic(&path, b"second").unwrap();
         assert_eq!(std::fs::read(&path).unwrap(), b"second");
+        #[cfg(unix)]
+        {
+            use std::os::unix::fs::PermissionsExt;
+            let mode = std::fs::metadata(&path).unwrap().permissions().mode();
+            assert_eq!(
+                mode & 0o044,
+                0o044,
+                "outputs are readable by others: {mode:o}"
+            );
+        }
     }
 
     #[test]

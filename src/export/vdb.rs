@@ -7,30 +7,52 @@
 //! Voxel (i, j, k) of a grid is stored at index coordinate (i, j, k), and the transform maps it
 //! to `origin + (i, j, k) * spacing`, so voxel centres keep their world positions.
 //!
-//! Values are written with the "no mask, all values" block encoding (metadata byte 6) and
-//! without half floats; the active-mask block compression and half-float storage are left to
-//! the exchange-formats work.
+//! Value blocks always use OpenVDB's active-mask compression (flag 2): inactive values equal the
+//! background, so a block stores its metadata byte 0 and then only its active values. On top of
+//! that, zlib (flag 1) is optional, and so is half-float storage (`Tree_float_5_4_3_HalfFloat`:
+//! values are rounded to f16 in the file and widened back to f32 by readers).
 
 use crate::error::{Error, Result};
 use crate::export::atomic::write_atomic;
 use crate::volume::Volume;
 use glam::Vec3;
+use rayon::prelude::*;
 use std::collections::BTreeMap;
 use std::io::{Seek, SeekFrom, Write};
 use std::path::Path;
 
 const FILE_VERSION: u32 = 224;
 const LIBRARY_VERSION: (u32, u32) = (12, 0);
-const COMPRESS_NONE: u32 = 0;
 const COMPRESS_ZIP: u32 = 1;
+const COMPRESS_ACTIVE_MASK: u32 = 2;
+/// Block metadata "no mask or inactive values": every inactive value is the background, and only
+/// the active values follow.
+const NO_MASK_OR_INACTIVE_VALS: u8 = 0;
+/// Block metadata "no mask, all values": every value of the node follows.
 const NO_MASK_AND_ALL_VALS: u8 = 6;
+/// The largest finite half float: larger values would turn into infinities.
+const HALF_MAX: f32 = 65504.0;
 
-/// How value blocks are stored.
+/// How value blocks are stored (on top of the active-mask compression, which is always on).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum Compression {
     None,
     #[default]
     Zip,
+}
+
+impl std::str::FromStr for Compression {
+    type Err = Error;
+    fn from_str(s: &str) -> Result<Self> {
+        match s {
+            "none" => Ok(Self::None),
+            "zip" => Ok(Self::Zip),
+            _ => Err(Error::param(
+                "compression",
+                format!("'{s}' is not one of none, zip"),
+            )),
+        }
+    }
 }
 
 /// One dense float grid to write; values x fastest.
@@ -57,7 +79,7 @@ impl<'a> VdbGrid<'a> {
         }
     }
 
-    fn validate(&self) -> Result<()> {
+    fn validate(&self, options: &VdbOptions) -> Result<()> {
         let key = format!("vdb grid '{}'", self.name);
         let printable = self.name.chars().all(|c| c.is_ascii_graphic() || c == ' ');
         if self.name.is_empty() || !printable {
@@ -83,13 +105,47 @@ impl<'a> VdbGrid<'a> {
                 "spacing must be positive and origin finite",
             ));
         }
+        if !self.background.is_finite() {
+            return Err(Error::param(key, "the background must be finite"));
+        }
         if let Some(i) = self.values.iter().position(|v| !v.is_finite()) {
             return Err(Error::param(
                 key,
-                format!("value {} at index {i} is not finite", self.values[i]),
+                format!(
+                    "value {} at voxel {:?} is not finite",
+                    self.values[i],
+                    self.voxel_of(i)
+                ),
+            ));
+        }
+        if options.half {
+            if let Some(i) = self.values.iter().position(|v| v.abs() > HALF_MAX) {
+                return Err(Error::param(
+                    key,
+                    format!(
+                        "value {} at voxel {:?} does not fit a half float (|v| <= {HALF_MAX}); \
+                         write float32",
+                        self.values[i],
+                        self.voxel_of(i)
+                    ),
+                ));
+            }
+        }
+        if self.values.iter().all(|&v| v == self.background) {
+            return Err(Error::param(
+                key,
+                format!(
+                    "the grid is empty: every voxel equals the background {}",
+                    self.background
+                ),
             ));
         }
         Ok(())
+    }
+
+    fn voxel_of(&self, index: usize) -> [usize; 3] {
+        let [nx, ny, _] = self.dims;
+        [index % nx, (index / nx) % ny, index / (nx * ny)]
     }
 }
 
@@ -97,6 +153,18 @@ impl<'a> VdbGrid<'a> {
 #[derive(Clone, Copy, Debug, Default)]
 pub struct VdbOptions {
     pub compression: Compression,
+    /// Store values as half floats (half the size; about 3 significant digits).
+    pub half: bool,
+}
+
+impl VdbOptions {
+    fn flags(&self) -> u32 {
+        COMPRESS_ACTIVE_MASK
+            | match self.compression {
+                Compression::None => 0,
+                Compression::Zip => COMPRESS_ZIP,
+            }
+    }
 }
 
 /// Writes the grids into one file, atomically.
@@ -105,7 +173,7 @@ pub fn write_vdb(path: &Path, grids: &[VdbGrid], options: &VdbOptions) -> Result
         return Err(Error::param("vdb", "nothing to write: no grids"));
     }
     for (n, grid) in grids.iter().enumerate() {
-        grid.validate()?;
+        grid.validate(options)?;
         if grids[..n].iter().any(|g| g.name == grid.name) {
             return Err(Error::param(
                 "vdb",
@@ -181,12 +249,15 @@ struct Tree {
     /// node5 origin -> node4 origin -> leaf origin -> 512 values (x slowest).
     nodes: BTreeMap<Origin, BTreeMap<Origin, Node4>>,
     active_voxels: u64,
+    /// Index-space bounding box of the active voxels (inclusive).
+    active_box: [[i32; 3]; 2],
 }
 
 fn build_tree(grid: &VdbGrid) -> Tree {
     let [nx, ny, nz] = grid.dims;
     let mut nodes: BTreeMap<Origin, BTreeMap<Origin, Node4>> = BTreeMap::new();
     let mut active_voxels = 0;
+    let mut active_box = [[i32::MAX; 3], [i32::MIN; 3]];
     for lk in (0..nz).step_by(8) {
         for lj in (0..ny).step_by(8) {
             for li in (0..nx).step_by(8) {
@@ -201,6 +272,11 @@ fn build_tree(grid: &VdbGrid) -> Tree {
                                 leaf[((i - li) << 6) | ((j - lj) << 3) | (k - lk)] = v;
                                 any = true;
                                 active_voxels += 1;
+                                let at = [i as i32, j as i32, k as i32];
+                                for a in 0..3 {
+                                    active_box[0][a] = active_box[0][a].min(at[a]);
+                                    active_box[1][a] = active_box[1][a].max(at[a]);
+                                }
                             }
                         }
                     }
@@ -222,6 +298,7 @@ fn build_tree(grid: &VdbGrid) -> Tree {
     Tree {
         nodes,
         active_voxels,
+        active_box,
     }
 }
 
@@ -239,25 +316,60 @@ fn child_index(origin: [i32; 3], parent: [i32; 3], shift: u32, log2: u32) -> usi
     (l(0) << (2 * log2)) | (l(1) << log2) | l(2)
 }
 
-/// A value block: the metadata byte, then the values, raw or zlib-compressed.
-fn values(w: &mut impl Write, values: &[f32], compression: Compression) -> std::io::Result<()> {
-    w.write_all(&[NO_MASK_AND_ALL_VALS])?;
-    let raw: Vec<u8> = values.iter().flat_map(|v| v.to_le_bytes()).collect();
-    match compression {
-        Compression::None => w.write_all(&raw),
+/// The value block of an internal node of `count` tiles, none of them active (all are the
+/// background). Normally it holds no values at all. For zipped half floats, OpenVDB writes an
+/// empty block as the metadata byte alone (its HalfWriter returns before the zip header), which
+/// vdb-rs 0.6 misreads (it expects the header); there every tile is written instead (metadata
+/// 6), which both read, and which zlib shrinks to a few dozen bytes.
+fn tile_block(count: usize, background: f32, options: &VdbOptions) -> std::io::Result<Vec<u8>> {
+    if options.half && options.compression == Compression::Zip {
+        let mut block = encode_values(std::iter::repeat_n(background, count), options)?;
+        block[0] = NO_MASK_AND_ALL_VALS;
+        Ok(block)
+    } else {
+        encode_values(std::iter::empty(), options)
+    }
+}
+
+/// A value block under active-mask compression: the metadata byte, then the active values
+/// (those differing from the background; the node masks say where they go), as f32 or f16,
+/// raw or zlib-compressed.
+fn encode_values(
+    active: impl Iterator<Item = f32>,
+    options: &VdbOptions,
+) -> std::io::Result<Vec<u8>> {
+    let mut block = vec![NO_MASK_OR_INACTIVE_VALS];
+    let raw: Vec<u8> = if options.half {
+        // OpenVDB's HalfWriter writes nothing at all, not even a zip header, for zero values.
+        let mut active = active.peekable();
+        if active.peek().is_none() {
+            return Ok(block);
+        }
+        active
+            .flat_map(|v| half::f16::from_f32(v).to_le_bytes())
+            .collect()
+    } else {
+        active.flat_map(|v| v.to_le_bytes()).collect()
+    };
+    match options.compression {
+        Compression::None => block.extend_from_slice(&raw),
         Compression::Zip => {
-            let mut z = flate2::write::ZlibEncoder::new(Vec::new(), flate2::Compression::default());
+            let mut z = flate2::write::ZlibEncoder::new(
+                Vec::with_capacity(raw.len() / 2),
+                flate2::Compression::default(),
+            );
             z.write_all(&raw)?;
             let zipped = z.finish()?;
             if zipped.len() < raw.len() {
-                w.write_all(&(zipped.len() as i64).to_le_bytes())?;
-                w.write_all(&zipped)
+                block.extend_from_slice(&(zipped.len() as i64).to_le_bytes());
+                block.extend_from_slice(&zipped);
             } else {
-                w.write_all(&(-(raw.len() as i64)).to_le_bytes())?;
-                w.write_all(&raw)
+                block.extend_from_slice(&(-(raw.len() as i64)).to_le_bytes());
+                block.extend_from_slice(&raw);
             }
         }
     }
+    Ok(block)
 }
 
 fn write_grid<W: Write + Seek>(
@@ -266,24 +378,31 @@ fn write_grid<W: Write + Seek>(
     options: &VdbOptions,
 ) -> std::io::Result<()> {
     string(w, grid.name)?;
-    string(w, "Tree_float_5_4_3")?;
+    string(
+        w,
+        if options.half {
+            "Tree_float_5_4_3_HalfFloat"
+        } else {
+            "Tree_float_5_4_3"
+        },
+    )?;
     string(w, "")?; // no instance parent
     let offsets_at = w.stream_position()?;
     w.write_all(&[0u8; 24])?; // grid, block and end positions, patched below
     let grid_pos = w.stream_position()?;
-    let flags = match options.compression {
-        Compression::None => COMPRESS_NONE,
-        Compression::Zip => COMPRESS_ZIP,
-    };
-    w.write_all(&flags.to_le_bytes())?;
+    w.write_all(&options.flags().to_le_bytes())?;
 
     let tree = build_tree(grid);
-    let dims = grid.dims.map(|d| d as i32);
-    let bbox_max: Vec<u8> = dims.iter().flat_map(|d| (d - 1).to_le_bytes()).collect();
-    w.write_all(&5u32.to_le_bytes())?;
+    let vec3i = |v: [i32; 3]| -> Vec<u8> { v.iter().flat_map(|c| c.to_le_bytes()).collect() };
+    // OpenVDB marks half-float grids twice: the type name's suffix and this metadata (which is
+    // what vdb-rs reads).
+    w.write_all(&(5 + options.half as u32).to_le_bytes())?;
     metadata(w, "class", "string", b"fog volume")?;
-    metadata(w, "file_bbox_min", "vec3i", &[0u8; 12])?;
-    metadata(w, "file_bbox_max", "vec3i", &bbox_max)?;
+    if options.half {
+        metadata(w, "is_saved_as_half_float", "bool", &[1])?;
+    }
+    metadata(w, "file_bbox_min", "vec3i", &vec3i(tree.active_box[0]))?;
+    metadata(w, "file_bbox_max", "vec3i", &vec3i(tree.active_box[1]))?;
     metadata(
         w,
         "file_voxel_count",
@@ -313,8 +432,6 @@ fn write_grid<W: Write + Seek>(
     w.write_all(&grid.background.to_le_bytes())?;
     w.write_all(&0u32.to_le_bytes())?;
     w.write_all(&(tree.nodes.len() as u32).to_le_bytes())?;
-    let tiles5 = vec![grid.background; 32768];
-    let tiles4 = vec![grid.background; 4096];
     for (n5, children) in &tree.nodes {
         for c in n5 {
             w.write_all(&c.to_le_bytes())?;
@@ -324,25 +441,41 @@ fn write_grid<W: Write + Seek>(
             children.keys().map(|o| child_index(*o, *n5, 7, 5)),
         ))?;
         w.write_all(&mask(32768, []))?;
-        values(w, &tiles5, options.compression)?;
+        w.write_all(&tile_block(32768, grid.background, options)?)?;
         for (n4, leaves) in children {
             w.write_all(&mask(
                 4096,
                 leaves.keys().map(|o| child_index(*o, *n4, 3, 4)),
             ))?;
             w.write_all(&mask(4096, []))?;
-            values(w, &tiles4, options.compression)?;
+            w.write_all(&tile_block(4096, grid.background, options)?)?;
             for leaf in leaves.values() {
                 w.write_all(&leaf_mask(leaf, grid.background))?;
             }
         }
     }
     let block_pos = w.stream_position()?;
-    for leaves in tree.nodes.values().flat_map(|c| c.values()) {
-        for leaf in leaves.values() {
-            w.write_all(&leaf_mask(leaf, grid.background))?;
-            values(w, leaf, options.compression)?;
-        }
+    // Leaves are encoded (and compressed) in parallel, then written in the file's order.
+    let leaves: Vec<&Leaf> = tree
+        .nodes
+        .values()
+        .flat_map(|c| c.values())
+        .flat_map(|leaves| leaves.values())
+        .collect();
+    let background = grid.background;
+    let blocks = leaves
+        .par_iter()
+        .map(|leaf| {
+            let mut block = leaf_mask(leaf, background);
+            block.extend(encode_values(
+                leaf.iter().copied().filter(|&v| v != background),
+                options,
+            )?);
+            Ok(block)
+        })
+        .collect::<std::io::Result<Vec<Vec<u8>>>>()?;
+    for block in &blocks {
+        w.write_all(block)?;
     }
     let end_pos = w.stream_position()?;
     w.seek(SeekFrom::Start(offsets_at))?;

@@ -2,6 +2,7 @@
 
 pub mod occupancy;
 pub mod raycast;
+pub mod reference;
 
 /// Depth written where a ray never reaches 50 % opacity (the value Blender writes for background).
 pub const BACKGROUND_DEPTH: f32 = 1.0e10;

@@ -1,0 +1,54 @@
+"""Occlux: fast illumination for scientific volumes, from Python.
+
+Load or build a volume, classify it, render it on the GPU (or the CPU twin), and write OpenVDB
+grids, OpenEXR layers and USD stages that Blender and other tools read::
+
+    import occlux
+
+    scene = occlux.Scene.load("examples/engine.toml")
+    result = occlux.render(scene, device="auto")
+    occlux.write_exr("engine.exr", result, scene)
+    occlux.export(scene, "out/", stem="engine")  # out/engine.{exr,png,vdb,usda}
+    truth = occlux.reference(scene, estimator="single", spp=256)  # .mean, .stderr
+
+``occlux.usd`` authors the same USD stages through usd-core's ``pxr`` API, into a file or into
+a stage of your own pipeline.
+
+Every error from the core is raised as :class:`OccluxError`, with the core's message.
+"""
+
+from occlux._occlux import (
+    PHANTOMS,
+    PRESETS,
+    Classification,
+    OccluxError,
+    ReferenceResult,
+    RenderResult,
+    Scene,
+    Volume,
+    __version__,
+    export,
+    reference,
+    render,
+    stage_description,
+    write_exr,
+    write_vdb,
+)
+
+__all__ = [
+    "PHANTOMS",
+    "PRESETS",
+    "Classification",
+    "OccluxError",
+    "ReferenceResult",
+    "RenderResult",
+    "Scene",
+    "Volume",
+    "__version__",
+    "export",
+    "reference",
+    "render",
+    "stage_description",
+    "write_exr",
+    "write_vdb",
+]

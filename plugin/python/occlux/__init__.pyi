@@ -1,0 +1,231 @@
+"""Type stubs of the ``occlux`` package (the native module ``occlux._occlux``)."""
+
+from collections.abc import Callable, Sequence
+from os import PathLike
+from typing import Literal
+
+import numpy as np
+import numpy.typing as npt
+
+__version__: str
+PHANTOMS: list[str]
+"""Names that :meth:`Volume.phantom` accepts."""
+PRESETS: list[str]
+"""Names that :meth:`Classification.preset` accepts."""
+
+_Path = str | PathLike[str]
+_Triple = tuple[float, float, float]
+_Device = Literal["auto", "gpu", "cpu"]
+_Units = Literal["normalized", "raw"]
+
+class OccluxError(Exception):
+    """An error reported by the Occlux core. The message is the core's, verbatim: it names the
+    file, field or parameter at fault and the expected form."""
+
+class Volume:
+    """A dense scalar volume in world units: voxel ``(i, j, k)`` is ``values[k, j, i]`` and has
+    its centre at ``origin + (i, j, k) * spacing``. Immutable."""
+
+    def __init__(
+        self,
+        values: npt.NDArray[np.number],
+        spacing: Sequence[float] = (1.0, 1.0, 1.0),
+        origin: Sequence[float] = (0.0, 0.0, 0.0),
+    ) -> None:
+        """Builds a volume from an array of shape ``(nz, ny, nx)`` and any real dtype, converted
+        to float32 with one copy. Raises TypeError/ValueError for a non-array, a non-real dtype or
+        another number of dimensions, and OccluxError for NaN or infinite values, non-positive
+        spacing or a non-finite origin."""
+
+    @staticmethod
+    def load(path: _Path, grid: str | None = None) -> Volume:
+        """Loads a volume file (.nrrd, .nhdr, .nii, .nii.gz, .vdb, .npy); ``grid`` picks a VDB
+        grid (default: the only or first float grid)."""
+
+    @staticmethod
+    def phantom(name: str, size: int = 64) -> Volume:
+        """A built-in phantom (see :data:`PHANTOMS`) filling [-1, 1]^3 with ``size``^3 voxels."""
+
+    @property
+    def dims(self) -> tuple[int, int, int]:
+        """Voxels along x, y, z: ``(nx, ny, nz)``."""
+
+    @property
+    def spacing(self) -> _Triple:
+        """Distance between voxel centres along x, y, z, in world units."""
+
+    @property
+    def origin(self) -> _Triple:
+        """World position of the centre of voxel (0, 0, 0)."""
+
+    @property
+    def bounds(self) -> tuple[_Triple, _Triple]:
+        """World-space bounding box of the voxels' cells: ``((min x, y, z), (max x, y, z))``."""
+
+    @property
+    def value_range(self) -> tuple[float, float]:
+        """Smallest and largest value."""
+
+    @property
+    def values(self) -> npt.NDArray[np.float32]:
+        """Read-only float32 array of shape ``(nz, ny, nx)`` viewing the volume's memory (no
+        copy; the array keeps the volume alive)."""
+
+class Classification:
+    """Maps the value (and, for 2D presets, the gradient magnitude) to extinction sigma_t per
+    world unit, an RGB single-scattering albedo and an RGB emission. Immutable."""
+
+    @staticmethod
+    def preset(
+        name: str, density_scale: float = 1.0, units: _Units = "normalized"
+    ) -> Classification:
+        """A built-in classification (see :data:`PRESETS`). ``units`` says how its value
+        positions are read: "normalized" (0 = the volume's minimum, 1 = its maximum; what presets
+        are made for) or "raw" (the volume's own values). ``density_scale`` multiplies sigma_t."""
+
+    @staticmethod
+    def from_points(
+        points: Sequence[tuple[float, float, _Triple, _Triple]],
+        units: _Units = "normalized",
+        density_scale: float = 1.0,
+    ) -> Classification:
+        """A piecewise-linear 1D transfer function through control points
+        ``(value, sigma_t, (r, g, b) albedo, (r, g, b) emission)``."""
+
+    @property
+    def units(self) -> _Units: ...
+    @property
+    def density_scale(self) -> float: ...
+    @property
+    def points(
+        self,
+    ) -> list[tuple[float, float, tuple[float, float, float], tuple[float, float, float]]] | None:
+        """Control points ``(value, sigma_t, albedo, emission)`` of a 1D transfer function
+        (before ``density_scale``); None for a 2D one."""
+    def extinction(self, volume: Volume) -> Volume:
+        """Extinction (sigma_t per world unit) at every voxel centre of ``volume``, on the same
+        grid: the ``density`` grid that :func:`export` writes."""
+
+class Scene:
+    """A scene: the volume source, classification, camera and image size, lights, background
+    and rendering method (the TOML scene file of the CLI)."""
+
+    @staticmethod
+    def load(path: _Path) -> Scene:
+        """Reads a TOML scene file; relative volume paths are resolved against its folder."""
+
+    @staticmethod
+    def from_toml(text: str, base_dir: _Path = ".") -> Scene:
+        """Parses TOML scene text; relative volume paths are resolved against ``base_dir``."""
+
+    def load_volume(self) -> Volume:
+        """Loads (or generates) the scene's volume and places it in the world (fit, centre)."""
+
+    classification: Classification
+    """The classification; assign a :class:`Classification` to replace it."""
+
+    @property
+    def width(self) -> int: ...
+    @property
+    def height(self) -> int: ...
+    def set_size(self, width: int, height: int) -> None:
+        """Changes the image size, keeping the camera's position, orientation and vertical field
+        of view (or orthographic scale): the same aspect ratio gives the same view."""
+
+    @property
+    def background(self) -> _Triple:
+        """Background radiance (r, g, b) seen where rays leave the volume."""
+
+class RenderResult:
+    """A rendered image. Immutable: ``beauty`` and ``depth`` are read-only views."""
+
+    @property
+    def beauty(self) -> npt.NDArray[np.float32]:
+        """Linear RGBA, shape ``(height, width, 4)``, row 0 at the top; the background is
+        composited in and alpha is the volume's opacity."""
+
+    @property
+    def depth(self) -> npt.NDArray[np.float32]:
+        """Distance from the eye to where the ray's opacity crosses 0.5 (1e10 where it never
+        does), shape ``(height, width)``."""
+
+    @property
+    def width(self) -> int: ...
+    @property
+    def height(self) -> int: ...
+    @property
+    def device(self) -> str:
+        """Where it ran: the GPU adapter, e.g. "llvmpipe (LLVM 15, 256 bits), Vulkan", or "cpu"."""
+
+def render(
+    scene: Scene,
+    volume: Volume | None = None,
+    device: _Device = "auto",
+    progress: Callable[[int, int], object] | None = None,
+) -> RenderResult:
+    """Renders ``scene`` with its own volume, or with ``volume``, on ``device``: "auto" (a GPU
+    adapter if one opens, else the CPU with a RuntimeWarning), "gpu" (or OccluxError) or "cpu".
+    ``progress(done, total)`` is called as rows finish (an exception it raises is re-raised once
+    the render is done). The GIL is released while it loads and renders."""
+
+def write_exr(path: _Path, result: RenderResult, scene: Scene, float32: bool = False) -> None:
+    """Writes a multilayer OpenEXR atomically: layers ``beauty`` (R, G, B, A; float16 unless
+    ``float32``) and ``depth`` (Z, float32), with the scene's camera, method and lighting as text
+    attributes ``occlux/*`` in the header."""
+
+def write_vdb(
+    path: _Path,
+    grids: dict[str, Volume],
+    compression: Literal["zip", "none"] = "zip",
+    half: bool = False,
+) -> None:
+    """Writes ``{name: Volume}`` as float grids of one OpenVDB file, atomically: sparse (voxels
+    equal to 0 are inactive) fog volumes with each volume's spacing and origin as the grid
+    transform; ``half`` stores values as float16. A grid whose voxels are all 0 is an error."""
+
+class ReferenceResult:
+    """A Monte Carlo reference. Immutable; the arrays are read-only views of its memory."""
+
+    @property
+    def mean(self) -> npt.NDArray[np.float32]:
+        """(height, width, 4): RGB radiance and the fraction of camera paths that met the
+        volume."""
+    @property
+    def stderr(self) -> npt.NDArray[np.float32]:
+        """(height, width, 3): the standard error of ``mean``'s RGB."""
+    @property
+    def spp(self) -> int: ...
+
+def reference(
+    scene: Scene,
+    estimator: Literal["ambient", "cone", "single", "multiple"] = "single",
+    spp: int = 64,
+    seed: int = 1,
+    bounces: int = 8,
+    g: float = 0.0,
+    aperture_deg: float = 30.0,
+    volume: Volume | None = None,
+    progress: Callable[[int, int], object] | None = None,
+) -> ReferenceResult:
+    """A Monte Carlo reference of ``scene`` on the CPU (see ``occlux reference``): unbiased,
+    seeded and deterministic, with per-pixel standard errors. The GIL is released."""
+
+def stage_description(scene: Scene, volume: Volume, vdb_file: str, grids: Sequence[str]) -> str:
+    """The USD stage for ``volume``'s grids ``grids`` in ``vdb_file`` (relative to the stage)
+    with ``scene``'s camera and lights, as JSON for :mod:`occlux.usd`."""
+
+def export(
+    scene: Scene,
+    out_dir: _Path,
+    stem: str = "scene",
+    volume: Volume | None = None,
+    device: _Device = "auto",
+    compression: Literal["zip", "none"] = "zip",
+    half: bool = False,
+    float32: bool = False,
+    exposure: float = 1.0,
+    progress: Callable[[int, int], object] | None = None,
+) -> list[str]:
+    """What ``occlux export`` does: renders ``scene`` and writes ``STEM.exr``, ``.png``,
+    ``.vdb`` (grids ``density`` and ``value``) and ``.usda`` into ``out_dir``; returns the
+    paths."""

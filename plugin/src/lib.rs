@@ -1,0 +1,39 @@
+//! Python bindings of Occlux: the native module `occlux._occlux`, re-exported by the `occlux`
+//! package (plugin/python/occlux). Volumes and images cross the boundary as numpy arrays; core
+//! errors become `occlux.OccluxError` with the core's message verbatim; long work (loading,
+//! rendering, writing) runs with the GIL released.
+
+mod arrays;
+mod classification;
+mod errors;
+mod export;
+mod reference;
+mod render;
+mod scene;
+mod vdb;
+mod volume;
+
+use errors::OccluxError;
+pub(crate) use errors::{py_err, unknown_choice};
+use pyo3::prelude::*;
+
+#[pymodule]
+fn _occlux(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    let py = m.py();
+    m.add("OccluxError", py.get_type::<OccluxError>())?;
+    m.add("__version__", env!("CARGO_PKG_VERSION"))?;
+    m.add("PHANTOMS", occlux::volume::phantom::PHANTOMS.to_vec())?;
+    m.add("PRESETS", occlux::classify::presets::PRESETS.to_vec())?;
+    m.add_class::<volume::PyVolume>()?;
+    m.add_class::<classification::PyClassification>()?;
+    m.add_class::<scene::PyScene>()?;
+    m.add_class::<render::PyRenderResult>()?;
+    m.add_function(wrap_pyfunction!(render::render, m)?)?;
+    m.add_function(wrap_pyfunction!(render::write_exr, m)?)?;
+    m.add_function(wrap_pyfunction!(vdb::write_vdb, m)?)?;
+    m.add_class::<reference::PyReferenceResult>()?;
+    m.add_function(wrap_pyfunction!(reference::reference, m)?)?;
+    m.add_function(wrap_pyfunction!(export::stage_description, m)?)?;
+    m.add_function(wrap_pyfunction!(export::export, m)?)?;
+    Ok(())
+}

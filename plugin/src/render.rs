@@ -1,0 +1,219 @@
+//! `occlux.render` and `occlux.write_exr`: a scene rendered on the chosen device, its image as
+//! numpy arrays, and the multilayer EXR the CLI writes.
+
+use crate::arrays::readonly_view;
+use crate::scene::PyScene;
+use crate::volume::PyVolume;
+use crate::{py_err, unknown_choice};
+use numpy::{PyArray2, PyArray3};
+use occlux::export::exr::{self, render_layers, Precision};
+use occlux::gpu::{Compute, DeviceChoice};
+use occlux::pipeline::{self, header_metadata};
+use occlux::progress::{NoProgress, Progress};
+use occlux::render::RenderImage;
+use occlux::scene::Scene;
+use occlux::volume::Volume;
+use pyo3::exceptions::PyRuntimeWarning;
+use pyo3::prelude::*;
+use std::borrow::Cow;
+use std::ffi::CString;
+use std::path::PathBuf;
+use std::sync::Mutex;
+
+/// A rendered image: linear radiance with the background composited in, the volume's opacity
+/// as alpha, and depth. Immutable: `beauty` and `depth` are read-only views of its memory.
+#[pyclass(name = "RenderResult", module = "occlux", frozen)]
+pub struct PyRenderResult {
+    image: RenderImage,
+    device: String,
+}
+
+#[pymethods]
+impl PyRenderResult {
+    /// Linear RGBA, float32, shape (height, width, 4), row 0 at the top.
+    #[getter]
+    fn beauty<'py>(this: &Bound<'py, Self>) -> PyResult<Bound<'py, PyArray3<f32>>> {
+        let image = &this.get().image;
+        let shape = (image.height as usize, image.width as usize, 4);
+        // SAFETY: the pixels belong to this frozen RenderResult, which never changes them.
+        unsafe { readonly_view(this.clone().into_any(), image.rgba.as_flattened(), shape) }
+    }
+
+    /// Distance from the eye to where the ray's opacity crosses 0.5 (1e10 where it never does),
+    /// float32, shape (height, width).
+    #[getter]
+    fn depth<'py>(this: &Bound<'py, Self>) -> PyResult<Bound<'py, PyArray2<f32>>> {
+        let image = &this.get().image;
+        let shape = (image.height as usize, image.width as usize);
+        // SAFETY: as for `beauty`.
+        unsafe { readonly_view(this.clone().into_any(), &image.depth, shape) }
+    }
+
+    #[getter]
+    fn width(&self) -> u32 {
+        self.image.width
+    }
+
+    #[getter]
+    fn height(&self) -> u32 {
+        self.image.height
+    }
+
+    /// Where it ran: the GPU adapter ("llvmpipe (LLVM 15, 256 bits), Vulkan") or "cpu".
+    #[getter]
+    fn device(&self) -> &str {
+        &self.device
+    }
+
+    fn __repr__(&self) -> String {
+        format!(
+            "RenderResult({}x{}, device='{}')",
+            self.image.width, self.image.height, self.device
+        )
+    }
+}
+
+fn parse_device(device: &str) -> PyResult<DeviceChoice> {
+    match device {
+        "auto" => Ok(DeviceChoice::Auto),
+        "gpu" => Ok(DeviceChoice::Gpu),
+        "cpu" => Ok(DeviceChoice::Cpu),
+        other => Err(unknown_choice("device", other, &["auto", "gpu", "cpu"])),
+    }
+}
+
+/// Where to compute, for a `device` argument: "auto" (a GPU adapter if one opens, else the CPU
+/// with a RuntimeWarning saying why), "gpu" (or OccluxError) or "cpu".
+pub(crate) fn compute(py: Python<'_>, device: &str) -> PyResult<Compute> {
+    let choice = parse_device(device)?;
+    // Opening an adapter the first time takes a while: without the GIL.
+    let (compute, notice) = py.detach(|| Compute::resolve(choice)).map_err(py_err)?;
+    if let Some(notice) = notice {
+        let message = CString::new(notice).unwrap_or_default();
+        PyErr::warn(py, &py.get_type::<PyRuntimeWarning>(), &message, 1)?;
+    }
+    Ok(compute)
+}
+
+/// The volume to render: the one given, or the scene's own (loaded without the GIL).
+pub(crate) fn scene_volume<'a>(
+    py: Python<'_>,
+    scene: &Scene,
+    volume: Option<&'a PyVolume>,
+) -> PyResult<Cow<'a, Volume>> {
+    match volume {
+        Some(volume) => Ok(Cow::Borrowed(&volume.inner)),
+        None => py
+            .detach(|| scene.load_volume())
+            .map(Cow::Owned)
+            .map_err(py_err),
+    }
+}
+
+/// Forwards the core's progress to a Python callable `progress(done, total)`, taking the GIL
+/// for each call. The core's work cannot be interrupted, so the first exception the callable
+/// raises silences it and is raised once the work is done.
+struct PyProgress {
+    callback: Py<PyAny>,
+    error: Mutex<Option<PyErr>>,
+}
+
+impl Progress for PyProgress {
+    fn update(&self, done: u64, total: u64) {
+        let mut error = self.error.lock().unwrap_or_else(|e| e.into_inner());
+        if error.is_none() {
+            *error = Python::attach(|py| self.callback.call1(py, (done, total)).err());
+        }
+    }
+}
+
+/// Runs `work` without the GIL, reporting to `progress` (a callable `progress(done, total)`,
+/// or None); an exception from the callable is raised once the work is done.
+pub(crate) fn with_progress<T: Send>(
+    py: Python<'_>,
+    progress: Option<Py<PyAny>>,
+    work: impl FnOnce(&dyn Progress) -> occlux::Result<T> + Send,
+) -> PyResult<T> {
+    let progress = progress.map(|callback| PyProgress {
+        callback,
+        error: Mutex::new(None),
+    });
+    let report: &dyn Progress = match &progress {
+        Some(p) => p,
+        None => &NoProgress,
+    };
+    let result = py.detach(|| work(report)).map_err(py_err)?;
+    match progress.and_then(|p| p.error.into_inner().unwrap_or_else(|e| e.into_inner())) {
+        Some(error) => Err(error),
+        None => Ok(result),
+    }
+}
+
+/// Renders the scene's method for `volume` without the GIL, reporting to `progress`.
+pub(crate) fn render_image(
+    py: Python<'_>,
+    scene: &Scene,
+    volume: &Volume,
+    compute: &Compute,
+    progress: Option<Py<PyAny>>,
+) -> PyResult<RenderImage> {
+    with_progress(py, progress, |report| {
+        pipeline::render(scene, volume, compute, report)
+    })
+}
+
+/// Renders `scene` with its own volume (loaded from the scene) or `volume`, on `device`:
+/// "auto" (a GPU adapter if one opens, else the CPU with a RuntimeWarning), "gpu" (or
+/// OccluxError) or "cpu". `progress(done, total)`, if given, is called as rows finish. The GIL
+/// is released while it loads and renders.
+#[pyfunction]
+#[pyo3(signature = (scene, volume = None, device = "auto", progress = None))]
+pub fn render(
+    py: Python<'_>,
+    scene: &PyScene,
+    volume: Option<&PyVolume>,
+    device: &str,
+    progress: Option<Py<PyAny>>,
+) -> PyResult<PyRenderResult> {
+    let compute = compute(py, device)?;
+    let scene = &scene.inner;
+    let volume = scene_volume(py, scene, volume)?;
+    let image = render_image(py, scene, &volume, &compute, progress)?;
+    let device = match compute {
+        Compute::Gpu(ctx) => ctx.describe(),
+        Compute::Cpu => "cpu".into(),
+    };
+    Ok(PyRenderResult { image, device })
+}
+
+/// Writes a render as a multilayer OpenEXR, atomically: layers `beauty` (R, G, B, A; float16
+/// unless `float32`) and `depth` (Z, always float32), with the scene's camera, method and
+/// lighting as text attributes in the header.
+#[pyfunction]
+#[pyo3(signature = (path, result, scene, float32 = false))]
+pub fn write_exr(
+    py: Python<'_>,
+    path: PathBuf,
+    result: &PyRenderResult,
+    scene: &PyScene,
+    float32: bool,
+) -> PyResult<()> {
+    let image = &result.image;
+    let metadata = header_metadata(&scene.inner);
+    let precision = if float32 {
+        Precision::Float
+    } else {
+        Precision::Half
+    };
+    py.detach(|| {
+        exr::write_exr(
+            &path,
+            image.width,
+            image.height,
+            &render_layers(image),
+            &metadata,
+            precision,
+        )
+    })
+    .map_err(py_err)
+}
