@@ -1,0 +1,38 @@
+"""The Occlux panel in the 3D View's sidebar."""
+
+from __future__ import annotations
+
+import bpy
+
+
+class VIEW3D_PT_occlux(bpy.types.Panel):
+    bl_label = "Occlux"
+    bl_space_type = "VIEW_3D"
+    bl_region_type = "UI"
+    bl_category = "Occlux"
+
+    def draw(self, context: bpy.types.Context) -> None:
+        settings = context.scene.occlux
+        layout = self.layout
+        column = layout.column(align=True)
+        column.prop(settings, "volume_path")
+        if settings.volume_path.lower().endswith(".raw"):
+            column.prop(settings, "raw_dims")
+            column.prop(settings, "raw_type")
+            column.prop(settings, "raw_spacing")
+        column.prop(settings, "preset")
+        column.prop(settings, "density_scale")
+        column.prop(settings, "fit")
+        column.prop(settings, "output_dir")
+        layout.operator("occlux.import_volume", icon="VOLUME_DATA")
+        layout.separator()
+        layout.prop(settings, "ao_factor")
+        layout.operator("occlux.composite", icon="NODE_COMPOSITING")
+
+
+def register() -> None:
+    bpy.utils.register_class(VIEW3D_PT_occlux)
+
+
+def unregister() -> None:
+    bpy.utils.unregister_class(VIEW3D_PT_occlux)

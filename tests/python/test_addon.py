@@ -1,0 +1,205 @@
+"""The Blender extension, headless: built with Blender's extension tool, installed and enabled in
+a throw-away user folder, its operators run on small volumes (a 64^3 phantom and tooth.nrrd),
+and the outcome checked: objects, grids, material links, compositor nodes, files, and clear
+errors that add nothing.
+
+Each test runs Blender (bpy) in a subprocess, so the user folder and the extension's own copy
+of the `occlux` wheel are used rather than this test process's."""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+import textwrap
+from pathlib import Path
+
+import numpy as np
+import occlux
+import pytest
+from occlux_testing import REPO
+
+SHARED = REPO.parent / "shared" / "data" / "scivis"
+RESULT = "OCCLUX-RESULT "
+
+# An operator that reports an error raises RuntimeError with the report when called from
+# Python: `attempt` records either the operator's result or that message.
+# Installs and enables the extension in the user folder, hiding the developer's editable
+# `occlux` so that the extension's bundled wheel is what gets imported.
+PRELUDE = """
+import sys
+sys.path = [p for p in sys.path if not p.rstrip("/").endswith("plugin/python")]
+import json, bpy, addon_utils
+assert bpy.ops.extensions.package_install_files(
+    filepath=ZIP, repo="user_default", enable_on_install=True) == {"FINISHED"}
+import occlux
+result = {"occlux_from": occlux.__file__}
+def done():
+    print("OCCLUX-RESULT " + json.dumps(result))
+def attempt(op, **kwargs):
+    try:
+        return sorted(op(**kwargs))
+    except RuntimeError as e:
+        return str(e)
+"""
+
+
+@pytest.fixture(scope="session")
+def extension(tmp_path_factory) -> Path:
+    """The extension zip, built once with the add-on's build script (maturin wheel inside)."""
+    out = tmp_path_factory.mktemp("dist")
+    subprocess.run(
+        [sys.executable, str(REPO / "blender_addon" / "build.py"), "--out", str(out)],
+        check=True,
+        capture_output=True,
+    )
+    return out / "occlux-0.1.0.zip"
+
+
+def blender(extension: Path, user: Path, script: str) -> tuple[dict, str]:
+    """Runs `script` after the prelude in a fresh bpy process; returns its `result` and output."""
+    env = {**os.environ, "BLENDER_USER_RESOURCES": str(user)}
+    code = f"ZIP = {str(extension)!r}\n" + PRELUDE + textwrap.dedent(script) + "\ndone()\n"
+    run = subprocess.run(
+        [sys.executable, "-c", code], env=env, capture_output=True, text=True, timeout=300
+    )
+    output = run.stdout + run.stderr
+    assert run.returncode == 0, output
+    line = next(x for x in output.splitlines() if x.startswith(RESULT))
+    return json.loads(line[len(RESULT) :]), output
+
+
+def phantom_npy(folder: Path) -> Path:
+    path = folder / "phantom.npy"
+    np.save(path, np.asarray(occlux.Volume.phantom("ct", 64).values))
+    return path
+
+
+def test_the_extension_installs_registers_and_reloads(extension: Path, tmp_path: Path) -> None:
+    result, _ = blender(
+        extension,
+        tmp_path,
+        """
+        ops = ("import_volume", "composite")
+        result["registered"] = [hasattr(bpy.ops.occlux, op) for op in ops]
+        result["panel"] = hasattr(bpy.types, "VIEW3D_PT_occlux")
+        result["settings"] = hasattr(bpy.types.Scene, "occlux")
+        name = "bl_ext.user_default.occlux"
+        for _ in range(2):
+            addon_utils.disable(name, default_set=True)
+            result["after_disable"] = hasattr(bpy.types.Scene, "occlux")
+            addon_utils.enable(name, default_set=True)
+        result["after_reload"] = hasattr(bpy.ops.occlux, "import_volume")
+        """,
+    )
+    assert result["registered"] == [True, True] and result["panel"] and result["settings"]
+    assert result["after_disable"] is False and result["after_reload"] is True
+    # The occlux package came from the wheel inside the extension, not from this checkout.
+    assert str(tmp_path) in result["occlux_from"], result["occlux_from"]
+
+
+@pytest.mark.parametrize("source", ["phantom", "tooth"])
+def test_load_volume_adds_a_classified_volume_object(
+    extension: Path, tmp_path: Path, source: str
+) -> None:
+    if source == "phantom":
+        path, preset = phantom_npy(tmp_path), "ct-soft-tissue"
+    else:
+        path, preset = SHARED / "tooth.nrrd", "ct-bone"
+        assert path.is_file(), f"{path} is missing: CI runs with ../shared beside the project"
+    result, output = blender(
+        extension,
+        tmp_path / "user",
+        f"""
+        s = bpy.context.scene.occlux
+        s.volume_path = {str(path)!r}
+        s.preset = {preset!r}
+        s.output_dir = {str(tmp_path / "out") + "/"!r}
+        result["op"] = list(bpy.ops.occlux.import_volume())
+        obj = bpy.data.objects[{path.stem!r}]
+        result["type"] = obj.type
+        result["grids"] = sorted(g.name for g in obj.data.grids)
+        result["filepath"] = obj.data.filepath
+        corners = [list(c) for c in obj.bound_box]
+        sides = [max(c[a] for c in corners) - min(c[a] for c in corners) for a in range(3)]
+        result["size"] = max(sides)
+        tree = obj.data.materials[0].node_tree
+        shader = next(n for n in tree.nodes if n.bl_idname == "ShaderNodeVolumePrincipled")
+        result["density_attribute"] = shader.inputs["Density Attribute"].default_value
+        result["color_from"] = shader.inputs["Color"].links[0].from_node.bl_idname
+        attrs = sorted(n.attribute_name for n in tree.nodes if n.bl_idname == "ShaderNodeAttribute")
+        result["attributes"] = attrs
+        """,
+    )
+    assert result["op"] == ["FINISHED"], output
+    assert result["type"] == "VOLUME" and result["grids"] == ["density", "value"]
+    assert Path(result["filepath"]).is_file()
+    assert result["size"] == pytest.approx(2.0, abs=0.1), "fitted to 2 scene units"
+    assert result["density_attribute"] == "density"
+    assert result["color_from"] == "ShaderNodeValToRGB" and result["attributes"] == ["value"]
+
+
+def test_bad_input_reports_an_error_and_adds_nothing(extension: Path, tmp_path: Path) -> None:
+    (tmp_path / "notes.txt").write_text("not a volume")
+    (tmp_path / "short.raw").write_bytes(bytes(100))
+    result, output = blender(
+        extension,
+        tmp_path / "user",
+        f"""
+        s = bpy.context.scene.occlux
+        s.output_dir = {str(tmp_path / "out") + "/"!r}
+        before = len(bpy.data.objects), len(bpy.data.volumes), len(bpy.data.materials)
+        outcomes = []
+        for path in ({str(tmp_path / "missing.nrrd")!r}, {str(tmp_path / "notes.txt")!r},
+                     {str(tmp_path / "short.raw")!r}):
+            s.volume_path = path
+            outcomes.append(attempt(bpy.ops.occlux.import_volume))
+        after = len(bpy.data.objects), len(bpy.data.volumes), len(bpy.data.materials)
+        result["outcomes"] = outcomes
+        result["unchanged"] = before == after
+        x = {str(tmp_path / "x.exr")!r}
+        result["composite"] = attempt(bpy.ops.occlux.composite, filepath=x)
+        result["groups"] = len(bpy.data.node_groups)
+        """,
+    )
+    missing, unsupported, short = result["outcomes"]
+    assert "no volume file" in missing and "missing.nrrd" in missing
+    assert "notes.txt" in unsupported, unsupported
+    assert "short.raw holds 100 bytes" in short, short
+    assert "no EXR file" in result["composite"]
+    assert result["unchanged"] and result["groups"] == 0, output
+    assert not (tmp_path / "out").exists() or not any((tmp_path / "out").iterdir())
+
+
+def test_composite_builds_the_compositor_group(extension: Path, tmp_path: Path) -> None:
+    scene = occlux.Scene.from_toml(
+        '[volume]\nphantom = "sphere"\nsize = 16\n'
+        "[camera]\nposition = [3, -3, 2]\nwidth = 32\nheight = 24\n"
+    )
+    exr = tmp_path / "sphere.exr"
+    occlux.write_exr(exr, occlux.render(scene, device="cpu"), scene)
+    result, output = blender(
+        extension,
+        tmp_path / "user",
+        f"""
+        op = bpy.ops.occlux.composite
+        result["ok"] = list(op(filepath={str(exr)!r}, layer="beauty", blend="MIX"))
+        tree = bpy.context.scene.compositing_node_group
+        result["nodes"] = sorted(n.bl_idname for n in tree.nodes)
+        image = next(n for n in tree.nodes if n.bl_idname == "CompositorNodeImage")
+        result["image_to"] = image.outputs["beauty"].links[0].to_node.bl_idname
+        result["bad"] = attempt(op, filepath={str(exr)!r}, layer="dos")
+        result["groups"] = len(bpy.data.node_groups)
+        """,
+    )
+    assert result["ok"] == ["FINISHED"], output
+    assert result["nodes"] == [
+        "CompositorNodeImage",
+        "CompositorNodeRLayers",
+        "NodeGroupOutput",
+        "ShaderNodeMix",
+    ]
+    assert result["image_to"] == "ShaderNodeMix"
+    assert "no layer 'dos'" in result["bad"], result["bad"]
+    assert result["groups"] == 1, "the failed request left no node group behind"
