@@ -25,6 +25,10 @@ pub enum Error {
     /// The GPU could not be opened or a GPU operation failed.
     #[error("GPU: {0}")]
     Gpu(String),
+
+    /// The caller cancelled the work through its [`crate::progress::Progress`].
+    #[error("cancelled")]
+    Cancelled,
 }
 
 pub type Result<T, E = Error> = std::result::Result<T, E>;

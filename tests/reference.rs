@@ -403,3 +403,42 @@ fn renders_are_deterministic_per_seed_and_parameters_are_checked() {
         assert!(err.contains(key), "{err}");
     }
 }
+
+#[test]
+fn a_cancelled_render_stops_without_a_result() {
+    use occlux::progress::Progress;
+    use std::sync::atomic::{AtomicU64, Ordering};
+    /// Asks to stop once the first row is done, and counts the rows that still report.
+    struct StopAfterFirstRow(AtomicU64);
+    impl Progress for StopAfterFirstRow {
+        fn update(&self, _done: u64, _total: u64) {
+            self.0.fetch_add(1, Ordering::Relaxed);
+        }
+        fn cancelled(&self) -> bool {
+            self.0.load(Ordering::Relaxed) > 0
+        }
+    }
+    let lit = lighting(vec![Light::Ambient {
+        radiance: Vec3::ONE,
+    }]);
+    let volume = cube();
+    let lut = constant_lut(&volume, SIGMA, ALBEDO);
+    let params = ReferenceParams {
+        estimator: Estimator::Ambient,
+        spp: 64,
+        seed: 1,
+        g: 0.0,
+    };
+    let input = ReferenceInput {
+        volume: &volume,
+        lut: &lut,
+        camera: &camera(),
+        lighting: &lit,
+        params: &params,
+    };
+    let stop = StopAfterFirstRow(AtomicU64::new(0));
+    let err = render(&input, &stop).unwrap_err();
+    assert!(matches!(err, occlux::Error::Cancelled), "{err}");
+    // Rows already running finish; no new row starts (2 threads here, 6 rows).
+    assert!(stop.0.load(Ordering::Relaxed) < 6);
+}

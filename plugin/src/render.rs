@@ -15,9 +15,11 @@ use occlux::scene::Scene;
 use occlux::volume::Volume;
 use pyo3::exceptions::PyRuntimeWarning;
 use pyo3::prelude::*;
+use pyo3::types::PyBool;
 use std::borrow::Cow;
 use std::ffi::CString;
 use std::path::PathBuf;
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Mutex;
 
 /// A rendered image: linear radiance with the background composited in, the volume's opacity
@@ -113,17 +115,31 @@ pub(crate) fn scene_volume<'a>(
 /// Forwards the core's progress to a Python callable `progress(done, total)`, taking the GIL
 /// for each call. The core's work cannot be interrupted, so the first exception the callable
 /// raises silences it and is raised once the work is done.
+/// A callable that returns `False` cancels the work (the call then raises OccluxError
+/// "cancelled").
 struct PyProgress {
     callback: Py<PyAny>,
     error: Mutex<Option<PyErr>>,
+    cancelled: AtomicBool,
 }
 
 impl Progress for PyProgress {
     fn update(&self, done: u64, total: u64) {
         let mut error = self.error.lock().unwrap_or_else(|e| e.into_inner());
         if error.is_none() {
-            *error = Python::attach(|py| self.callback.call1(py, (done, total)).err());
+            Python::attach(|py| match self.callback.call1(py, (done, total)) {
+                Ok(answer) => {
+                    if answer.bind(py).is(PyBool::new(py, false)) {
+                        self.cancelled.store(true, Ordering::Relaxed);
+                    }
+                }
+                Err(e) => *error = Some(e),
+            });
         }
+    }
+
+    fn cancelled(&self) -> bool {
+        self.cancelled.load(Ordering::Relaxed)
     }
 }
 
@@ -137,6 +153,7 @@ pub(crate) fn with_progress<T: Send>(
     let progress = progress.map(|callback| PyProgress {
         callback,
         error: Mutex::new(None),
+        cancelled: AtomicBool::new(false),
     });
     let report: &dyn Progress = match &progress {
         Some(p) => p,

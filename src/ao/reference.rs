@@ -95,6 +95,9 @@ pub fn ao_reference(
         .zip(stderr.par_chunks_mut(nx * ny))
         .enumerate()
         .for_each(|(k, (open_slice, err_slice))| {
+            if progress.cancelled() {
+                return;
+            }
             for (n, (o, e)) in open_slice.iter_mut().zip(err_slice).enumerate() {
                 let (i, j) = (n % nx, n / nx);
                 let x =
@@ -105,6 +108,9 @@ pub fn ao_reference(
             let done = slices_done.fetch_add(1, Ordering::Relaxed) + 1;
             progress.update(done, nz as u64);
         });
+    if progress.cancelled() {
+        return Err(Error::Cancelled);
+    }
     let grid = |values| Volume::new(volume.dims(), volume.spacing(), volume.origin(), values);
     Ok(AoReference {
         openness: grid(openness)?,

@@ -200,3 +200,16 @@ def test_reference_rejects_bad_parameters(scene) -> None:
         occlux.reference(s, spp=1)
     with pytest.raises(occlux.OccluxError, match="aperture"):
         occlux.reference(s, estimator="cone", aperture_deg=90.0)
+
+
+def test_a_progress_callback_returning_false_cancels(scene) -> None:
+    s, _ = scene
+    calls: list[int] = []
+
+    def stop(done: int, total: int) -> bool:
+        calls.append(done)
+        return False
+
+    with pytest.raises(occlux.OccluxError, match="cancelled"):
+        occlux.reference(s, spp=64, progress=stop)
+    assert 0 < len(calls) < s.height, "it stopped before the last row"

@@ -165,8 +165,9 @@ def render(
 ) -> RenderResult:
     """Renders ``scene`` with its own volume, or with ``volume``, on ``device``: "auto" (a GPU
     adapter if one opens, else the CPU with a RuntimeWarning), "gpu" (or OccluxError) or "cpu".
-    ``progress(done, total)`` is called as rows finish (an exception it raises is re-raised once
-    the render is done). The GIL is released while it loads and renders."""
+    ``progress(done, total)`` is called as rows finish; returning ``False`` from it cancels the
+    work (OccluxError "cancelled"); an exception it raises is re-raised once the render is done.
+    The GIL is released while it loads and renders."""
 
 def write_exr(path: _Path, result: RenderResult, scene: Scene, float32: bool = False) -> None:
     """Writes a multilayer OpenEXR atomically: layers ``beauty`` (R, G, B, A; float16 unless

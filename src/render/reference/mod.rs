@@ -183,6 +183,9 @@ pub fn render(input: &ReferenceInput, progress: &dyn Progress) -> Result<Referen
         .zip(stderr.par_chunks_mut(width))
         .enumerate()
         .for_each(|(j, (mean_row, err_row))| {
+            if progress.cancelled() {
+                return;
+            }
             for (i, (m, e)) in mean_row.iter_mut().zip(err_row).enumerate() {
                 let pixel = (j * width + i) as u64;
                 (*m, *e) = estimate_pixel(input, &medium, &cam.ray(i as u32, j as u32), pixel);
@@ -190,6 +193,9 @@ pub fn render(input: &ReferenceInput, progress: &dyn Progress) -> Result<Referen
             let done = rows_done.fetch_add(1, Ordering::Relaxed) + 1;
             progress.update(done, cam.height as u64);
         });
+    if progress.cancelled() {
+        return Err(Error::Cancelled);
+    }
     Ok(ReferenceImage {
         width: cam.width,
         height: cam.height,
