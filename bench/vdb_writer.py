@@ -13,28 +13,17 @@ from __future__ import annotations
 
 import argparse
 import json
-import site
 import statistics
 import struct
-import sys
 import tempfile
 import time
 from pathlib import Path
 
 import numpy as np
 import occlux
+from occlux.cycles import bundled_module
 
 REPO = Path(__file__).resolve().parents[1]
-
-
-def import_openvdb():
-    for root in site.getsitepackages():
-        bundled = Path(root) / "bpy" / "5.0" / "python" / "lib" / "python3.11" / "site-packages"
-        if bundled.is_dir():
-            sys.path.append(str(bundled))
-    import openvdb
-
-    return openvdb
 
 
 def median_seconds(write, repeats: int) -> float:
@@ -93,7 +82,7 @@ def main() -> None:
     parser.add_argument("--repeats", type=int, default=7)
     parser.add_argument("--json", type=Path, help="also write the table as JSON here")
     args = parser.parse_args()
-    openvdb = import_openvdb()
+    openvdb = bundled_module("openvdb")
 
     scene = occlux.Scene.load(args.scene)
     volume = scene.load_volume()

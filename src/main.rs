@@ -271,46 +271,7 @@ fn run(cli: Cli) -> occlux::Result<()> {
             radius,
             seed,
             out,
-        } => {
-            let (variant, name) = match variant {
-                AoVariantName::Sphere => (AoVariant::Sphere, "sphere"),
-                AoVariantName::Hemisphere => (AoVariant::Hemisphere, "hemisphere"),
-                AoVariantName::TangentSphere => (AoVariant::TangentSphere, "tangent-sphere"),
-            };
-            let parsed = Scene::from_file(&scene)?;
-            let volume = parsed.load_volume()?;
-            let params = AoReferenceParams {
-                variant,
-                samples,
-                seed,
-                radius: radius.map(|r| r * volume.spacing().min_element()),
-            };
-            let lut = parsed.classification.bake(&volume);
-            let bar = progress_bar(quiet, volume.dims()[2] as u64, "sampling");
-            let report = |done: u64, total: u64| {
-                bar.set_length(total);
-                bar.set_position(done);
-            };
-            let started = Instant::now();
-            let ao = ao_reference(&volume, &lut, &params, &report)?;
-            bar.finish_and_clear();
-            if !quiet {
-                println!(
-                    "{name} AO reference, {samples} samples per voxel, in {:.2} s",
-                    started.elapsed().as_secs_f64()
-                );
-            }
-            std::fs::create_dir_all(&out).map_err(|e| occlux::Error::io(&out, e))?;
-            let path = out.join(format!("{}-ao-{name}.vdb", stem(&scene)));
-            let mut grids = vec![VdbGrid::from_volume("ao", &ao.openness)];
-            // A noiseless estimate (e.g. every tangent-sphere sample tied) has no error grid.
-            if ao.stderr.values().iter().any(|&e| e > 0.0) {
-                grids.push(VdbGrid::from_volume("ao_stderr", &ao.stderr));
-            }
-            write_vdb(&path, &grids, &VdbOptions::default())?;
-            report_written(&[path], quiet);
-            Ok(())
-        }
+        } => ao_reference_volume(&scene, variant, samples, radius, seed, &out, quiet),
         Command::CheckCycles {
             scene,
             estimator,
@@ -318,6 +279,52 @@ fn run(cli: Cli) -> occlux::Result<()> {
             out,
         } => occlux::eval::cycles::run(&scene, estimator.as_str(), spp, &out),
     }
+}
+
+/// Estimates a reference AO volume and writes it as OUT/STEM-ao-VARIANT.vdb.
+fn ao_reference_volume(
+    scene: &Path,
+    variant: AoVariantName,
+    samples: u32,
+    radius: Option<f32>,
+    seed: u64,
+    out: &Path,
+    quiet: bool,
+) -> occlux::Result<()> {
+    let (variant, name) = match variant {
+        AoVariantName::Sphere => (AoVariant::Sphere, "sphere"),
+        AoVariantName::Hemisphere => (AoVariant::Hemisphere, "hemisphere"),
+        AoVariantName::TangentSphere => (AoVariant::TangentSphere, "tangent-sphere"),
+    };
+    let parsed = Scene::from_file(scene)?;
+    let volume = parsed.load_volume()?;
+    let params = AoReferenceParams {
+        variant,
+        samples,
+        seed,
+        radius: radius.map(|r| r * volume.spacing().min_element()),
+    };
+    let lut = parsed.classification.bake(&volume);
+    let bar = progress_bar(quiet, volume.dims()[2] as u64, "sampling");
+    let started = Instant::now();
+    let ao = ao_reference(&volume, &lut, &params, &bar)?;
+    bar.0.finish_and_clear();
+    if !quiet {
+        println!(
+            "{name} AO reference, {samples} samples per voxel, in {:.2} s",
+            started.elapsed().as_secs_f64()
+        );
+    }
+    std::fs::create_dir_all(out).map_err(|e| occlux::Error::io(out, e))?;
+    let path = out.join(format!("{}-ao-{name}.vdb", stem(scene)));
+    let mut grids = vec![VdbGrid::from_volume("ao", &ao.openness)];
+    // A noiseless estimate (e.g. every tangent-sphere sample tied) has no error grid.
+    if ao.stderr.values().iter().any(|&e| e > 0.0) {
+        grids.push(VdbGrid::from_volume("ao_stderr", &ao.stderr));
+    }
+    write_vdb(&path, &grids, &VdbOptions::default())?;
+    report_written(&[path], quiet);
+    Ok(())
 }
 
 /// Renders a Monte Carlo reference with progress, and writes it.
@@ -333,10 +340,6 @@ fn reference(
     let volume = scene.load_volume()?;
     let lut = scene.classification.bake(&volume);
     let bar = progress_bar(quiet, scene.camera.height as u64, "sampling");
-    let report = |done: u64, total: u64| {
-        bar.set_length(total);
-        bar.set_position(done);
-    };
     let started = Instant::now();
     let input = ReferenceInput {
         volume: &volume,
@@ -345,8 +348,8 @@ fn reference(
         lighting: &scene.lighting,
         params,
     };
-    let image = occlux::render::reference::render(&input, &report)?;
-    bar.finish_and_clear();
+    let image = occlux::render::reference::render(&input, &bar)?;
+    bar.0.finish_and_clear();
     if !quiet {
         println!(
             "{} reference, {} spp, {}x{} in {:.2} s",
@@ -417,13 +420,9 @@ fn render_scene(
         compute.describe()
     ));
     let bar = progress_bar(quiet, scene.camera.height as u64, "rendering");
-    let report = |done: u64, total: u64| {
-        bar.set_length(total);
-        bar.set_position(done);
-    };
     let render_start = Instant::now();
-    let img = pipeline::render(scene, &volume, &compute, &report)?;
-    bar.finish_and_clear();
+    let img = pipeline::render(scene, &volume, &compute, &bar)?;
+    bar.0.finish_and_clear();
     say(format!(
         "rendered {}x{} in {:.2} s",
         img.width,
@@ -433,9 +432,19 @@ fn render_scene(
     Ok((img, volume))
 }
 
-fn progress_bar(quiet: bool, len: u64, label: &'static str) -> ProgressBar {
+/// An indicatif bar (hidden when quiet) that the library's work reports to.
+struct Bar(ProgressBar);
+
+impl occlux::progress::Progress for Bar {
+    fn update(&self, done: u64, total: u64) {
+        self.0.set_length(total);
+        self.0.set_position(done);
+    }
+}
+
+fn progress_bar(quiet: bool, len: u64, label: &'static str) -> Bar {
     if quiet {
-        return ProgressBar::hidden();
+        return Bar(ProgressBar::hidden());
     }
     let bar = ProgressBar::new(len);
     bar.set_style(
@@ -443,7 +452,7 @@ fn progress_bar(quiet: bool, len: u64, label: &'static str) -> ProgressBar {
             .unwrap_or_else(|_| ProgressStyle::default_bar()),
     );
     bar.set_message(label);
-    bar
+    Bar(bar)
 }
 
 fn info(

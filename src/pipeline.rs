@@ -1,7 +1,7 @@
 //! Runs a scene end to end: load, classify, render on the chosen device, write the outputs.
 
 use crate::error::{Error, Result};
-use crate::export::exr::{render_layers, write_exr, Precision};
+use crate::export::exr::{render_layers, write_exr, ExrLayer, Precision};
 use crate::export::png::write_png_preview;
 use crate::export::usd::{write_usda, StageDescription};
 use crate::export::vdb::{write_vdb, VdbGrid, VdbOptions};
@@ -75,20 +75,15 @@ pub fn write_render(
     stem: &str,
     options: &OutputOptions,
 ) -> Result<Vec<PathBuf>> {
-    options.validate()?;
-    std::fs::create_dir_all(out_dir).map_err(|e| Error::io(out_dir, e))?;
-    let exr_path = out_dir.join(format!("{stem}.exr"));
-    let png_path = out_dir.join(format!("{stem}.png"));
-    write_exr(
-        &exr_path,
-        img.width,
-        img.height,
-        &render_layers(img),
+    let layers = render_layers(img);
+    write_image_files(
+        img,
+        &layers,
         &header_metadata(scene),
-        options.precision,
-    )?;
-    write_png_preview(&png_path, img, options.exposure)?;
-    Ok(vec![exr_path, png_path])
+        out_dir,
+        stem,
+        options,
+    )
 }
 
 /// Writes a Monte Carlo reference: `OUT/STEM.exr` (float32 layers `beauty`, the per-pixel
@@ -102,14 +97,6 @@ pub fn write_reference(
     stem: &str,
     exposure: f32,
 ) -> Result<Vec<PathBuf>> {
-    OutputOptions {
-        precision: Precision::Float,
-        exposure,
-    }
-    .validate()?;
-    std::fs::create_dir_all(out_dir).map_err(|e| Error::io(out_dir, e))?;
-    let exr_path = out_dir.join(format!("{stem}.exr"));
-    let png_path = out_dir.join(format!("{stem}.png"));
     let mut meta = header_metadata(scene);
     let (g, bounces, aperture) = match params.estimator {
         Estimator::Multiple { bounces } => (params.g, Some(bounces), None),
@@ -126,15 +113,42 @@ pub fn write_reference(
         "aperture_deg": aperture,
     });
     meta.insert("occlux/reference".into(), description.to_string());
-    write_exr(
-        &exr_path,
-        image.width,
-        image.height,
+    let options = OutputOptions {
+        precision: Precision::Float,
+        exposure,
+    };
+    write_image_files(
+        &image.to_render(),
         &image.layers(),
         &meta,
-        Precision::Float,
+        out_dir,
+        stem,
+        &options,
+    )
+}
+
+/// `OUT/STEM.exr` holding `layers` with `meta` in its header, and the PNG preview of `preview`.
+fn write_image_files(
+    preview: &RenderImage,
+    layers: &[ExrLayer],
+    meta: &BTreeMap<String, String>,
+    out_dir: &Path,
+    stem: &str,
+    options: &OutputOptions,
+) -> Result<Vec<PathBuf>> {
+    options.validate()?;
+    std::fs::create_dir_all(out_dir).map_err(|e| Error::io(out_dir, e))?;
+    let exr_path = out_dir.join(format!("{stem}.exr"));
+    let png_path = out_dir.join(format!("{stem}.png"));
+    write_exr(
+        &exr_path,
+        preview.width,
+        preview.height,
+        layers,
+        meta,
+        options.precision,
     )?;
-    write_png_preview(&png_path, &image.to_render(), exposure)?;
+    write_png_preview(&png_path, preview, options.exposure)?;
     Ok(vec![exr_path, png_path])
 }
 

@@ -81,6 +81,16 @@ fn run_with(
     lighting: &Lighting,
     params: &ReferenceParams,
 ) -> ReferenceImage {
+    try_run(volume, lut, lighting, params, &NoProgress).unwrap()
+}
+
+fn try_run(
+    volume: &Volume,
+    lut: &Lut,
+    lighting: &Lighting,
+    params: &ReferenceParams,
+    progress: &dyn occlux::progress::Progress,
+) -> occlux::Result<ReferenceImage> {
     let input = ReferenceInput {
         volume,
         lut,
@@ -88,7 +98,7 @@ fn run_with(
         lighting,
         params,
     };
-    render(&input, &NoProgress).unwrap()
+    render(&input, progress)
 }
 
 /// The pixel value: `int_0^len e^{-sigma s} sigma albedo L_s(x_s) ds + e^{-sigma len} B` along
@@ -392,14 +402,9 @@ fn renders_are_deterministic_per_seed_and_parameters_are_checked() {
             "aperture",
         ),
     ] {
-        let input = ReferenceInput {
-            volume: &volume,
-            lut: &lut,
-            camera: &camera(),
-            lighting: &lit,
-            params: &params,
-        };
-        let err = render(&input, &NoProgress).unwrap_err().to_string();
+        let err = try_run(&volume, &lut, &lit, &params, &NoProgress)
+            .unwrap_err()
+            .to_string();
         assert!(err.contains(key), "{err}");
     }
 }
@@ -429,15 +434,8 @@ fn a_cancelled_render_stops_without_a_result() {
         seed: 1,
         g: 0.0,
     };
-    let input = ReferenceInput {
-        volume: &volume,
-        lut: &lut,
-        camera: &camera(),
-        lighting: &lit,
-        params: &params,
-    };
     let stop = StopAfterFirstRow(AtomicU64::new(0));
-    let err = render(&input, &stop).unwrap_err();
+    let err = try_run(&volume, &lut, &lit, &params, &stop).unwrap_err();
     assert!(matches!(err, occlux::Error::Cancelled), "{err}");
     // Rows already running finish; no new row starts (2 threads here, 6 rows).
     assert!(stop.0.load(Ordering::Relaxed) < 6);

@@ -1,41 +1,23 @@
-"""Shared helpers for the Python tests: the CLI binary, and the readers bundled in the bpy wheel
-(OpenVDB 12, OpenImageIO), which live outside sys.path."""
+"""Shared helpers for the Python tests: the CLI binary, an image reader, and (re-exported from
+`occlux.cycles`) the way to the modules bundled in the bpy wheel (OpenVDB 12, OpenImageIO)."""
 
 from __future__ import annotations
 
 import os
-import site
 import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
+from occlux.cycles import bpy_site_packages, bundled_module
 
 REPO = Path(__file__).resolve().parents[2]
 
 
-def bpy_site_packages() -> Path:
-    """The bpy wheel's bundled site-packages (openvdb, OpenImageIO, pxr, MaterialX)."""
-    for root in site.getsitepackages():
-        path = Path(root) / "bpy" / "5.0" / "python" / "lib" / "python3.11" / "site-packages"
-        if path.is_dir():
-            return path
-    raise RuntimeError("the bpy 5.0 wheel is not installed in this Python (see .ci/run)")
-
-
-def _with_bpy_site_packages() -> None:
-    path = str(bpy_site_packages())
-    if path not in sys.path:
-        sys.path.append(path)
-
-
 def oiio_read(path: Path) -> dict[str, np.ndarray]:
     """Every channel of an image file, by name, as float32 arrays (row 0 at the top)."""
-    _with_bpy_site_packages()
-    import OpenImageIO
-
-    image = OpenImageIO.ImageInput.open(str(path))
-    assert image, OpenImageIO.geterror()
+    oiio = bundled_module("OpenImageIO")
+    image = oiio.ImageInput.open(str(path))
+    assert image, oiio.geterror()
     try:
         names = list(image.spec().channelnames)
         pixels = image.read_image(format="float")
@@ -65,3 +47,14 @@ def usd_validation_errors(stage) -> list[str]:
     registry = UsdValidation.ValidationRegistry()
     context = UsdValidation.ValidationContext(registry.GetOrLoadAllValidators())
     return [str(error.GetErrorAsString()) for error in context.Validate(stage)]
+
+
+__all__ = [
+    "REPO",
+    "bpy_site_packages",
+    "bundled_module",
+    "occlux_binary",
+    "oiio_read",
+    "run_occlux",
+    "usd_validation_errors",
+]

@@ -305,7 +305,7 @@ def padded_value_grid(vdb_path: str | os.PathLike[str], spec: SceneSpec) -> Path
     and has no medium beyond; Cycles interpolates towards the grid's background (0) over the
     voxel past the last centre. With the repeated border, Cycles' samples inside the box are
     Occlux's; the material's box mask removes what lies beyond (see :func:`_material`)."""
-    openvdb = _bundled("openvdb")
+    openvdb = bundled_module("openvdb")
     path = Path(vdb_path)
     try:
         grid = openvdb.read(str(path), "value")
@@ -745,7 +745,7 @@ def bpy_site_packages() -> Path:
     raise HarnessError("the bpy 5.0 wheel is not installed in this Python")
 
 
-def _bundled(name: str):
+def bundled_module(name: str):
     """A module that Blender bundles (``OpenImageIO``, ``openvdb``): importable inside Blender,
     from the bpy wheel's own site-packages otherwise."""
     try:
@@ -757,7 +757,7 @@ def _bundled(name: str):
 
 def read_channels(path: str | os.PathLike[str]) -> tuple[dict[str, np.ndarray], dict[str, str]]:
     """Every channel of an image file (float32, row 0 at the top) and its string attributes."""
-    oiio = _bundled("OpenImageIO")
+    oiio = bundled_module("OpenImageIO")
     image = oiio.ImageInput.open(str(path))
     if not image:
         raise HarnessError(f"{path}: cannot read it: {oiio.geterror()}")
@@ -1017,7 +1017,7 @@ def _write_atomic(path: Path, write: Callable[[Path], None]) -> None:
 
 def _write_image(path: Path, pixels: np.ndarray, names: Sequence[str]) -> None:
     """An image through OpenImageIO: uint8 pixels as they are, floats as float32."""
-    oiio = _bundled("OpenImageIO")
+    oiio = bundled_module("OpenImageIO")
     height, width, channels = pixels.shape
     fmt = "uint8" if pixels.dtype == np.uint8 else "float"
     spec = oiio.ImageSpec(width, height, channels, fmt)
