@@ -3,7 +3,7 @@
 use clap::{Parser, Subcommand};
 use indicatif::{ProgressBar, ProgressStyle};
 use occlux::ao::reference::{ao_reference, AoReferenceParams, AoVariant};
-use occlux::eval::bench;
+use occlux::eval::{bench, vao_accuracy, vao_bench};
 use occlux::export::exr::Precision;
 use occlux::export::vdb::{write_vdb, Compression, VdbGrid, VdbOptions};
 use occlux::gpu::{Compute, DeviceChoice};
@@ -84,6 +84,11 @@ enum Command {
     },
     /// Time unshaded and gradient DVR on CPU and GPU (median after warm-up); table and JSON.
     Bench(bench::BenchArgs),
+    /// Time VAO volumes at several radii on CPU and GPU (median after warm-up); table and JSON.
+    BenchAo(vao_bench::VaoBenchArgs),
+    /// Accuracy of the fast VAO estimates against the exact count and Monte Carlo, over
+    /// sampled voxels of each scene's volume; Markdown table and JSON.
+    AoAccuracy(vao_accuracy::AccuracyArgs),
     /// Monte Carlo reference of the scene (CPU): OUT/STEM-ESTIMATOR.exr (float32 layers beauty
     /// = per-pixel mean, stderr = its standard error) and a PNG preview.
     Reference {
@@ -237,6 +242,8 @@ fn run(cli: Cli) -> occlux::Result<()> {
             grid,
         } => info(&file, raw_dims, raw_type, raw_spacing, grid),
         Command::Bench(args) => bench::run(&args, quiet),
+        Command::BenchAo(args) => vao_bench::run(&args, quiet),
+        Command::AoAccuracy(args) => vao_accuracy::run(&args, quiet),
         Command::Reference {
             scene,
             estimator,

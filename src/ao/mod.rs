@@ -1,5 +1,6 @@
 //! Ambient-occlusion volumes: per-voxel occlusion grids that renderers (and Blender, through
-//! VDB) shade with. `reference` holds the Monte Carlo references the fast methods are measured
-//! against.
+//! VDB) shade with. `vao` computes them fast from local statistics (CPU and GPU twins);
+//! `reference` holds the Monte Carlo references the fast methods are measured against.
 
 pub mod reference;
+pub mod vao;

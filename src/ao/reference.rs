@@ -118,6 +118,28 @@ pub fn ao_reference(
     })
 }
 
+/// The same estimates at the given voxels only (for measuring on large volumes): (openness,
+/// standard error) per voxel, each from its own stream, so a voxel's estimate does not depend
+/// on which others are asked for.
+pub fn ao_reference_at(
+    volume: &Volume,
+    lut: &Lut,
+    params: &AoReferenceParams,
+    voxels: &[[usize; 3]],
+) -> Result<Vec<(f32, f32)>> {
+    params.validate()?;
+    let medium = Medium::new(volume, lut);
+    let [nx, ny, _] = volume.dims();
+    Ok(voxels
+        .par_iter()
+        .map(|&[i, j, k]| {
+            let x = volume.origin() + Vec3::new(i as f32, j as f32, k as f32) * volume.spacing();
+            let index = (i + nx * (j + ny * k)) as u64;
+            estimate_voxel(&medium, volume, x, params, index)
+        })
+        .collect())
+}
+
 fn estimate_voxel(
     medium: &Medium,
     volume: &Volume,

@@ -66,21 +66,7 @@ pub fn run(args: &BenchArgs, quiet: bool) -> Result<()> {
     scene.volume.kind = SourceKind::File(args.volume.clone());
     let volume = scene.load_volume()?;
     let lut = scene.classification.bake(&volume);
-    let mut devices = vec![];
-    if args.device != DeviceChoice::Gpu {
-        devices.push(Compute::Cpu);
-    }
-    if args.device != DeviceChoice::Cpu {
-        match Compute::resolve(DeviceChoice::Gpu) {
-            Ok((gpu, _)) => devices.push(gpu),
-            Err(e) if args.device == DeviceChoice::Auto => {
-                if !quiet {
-                    eprintln!("no GPU timings: {e}");
-                }
-            }
-            Err(e) => return Err(e),
-        }
-    }
+    let devices = devices(args.device, quiet)?;
     let methods = [
         ("unshaded", Shading::Unshaded),
         ("gradient", Shading::Gradient(GradientShading::default())),
@@ -126,15 +112,7 @@ pub fn run(args: &BenchArgs, quiet: bool) -> Result<()> {
                     }
                     None => cpu::render(&input, &NoProgress),
                 };
-                // Warm-up: shader compilation and first-touch allocation are not timed.
-                render_once()?;
-                let mut times: Vec<f64> = (0..args.repeats)
-                    .map(|_| {
-                        let t = Instant::now();
-                        render_once().map(|_| t.elapsed().as_secs_f64() * 1e3)
-                    })
-                    .collect::<Result<_>>()?;
-                times.sort_by(f64::total_cmp);
+                let times = timed(args.repeats, render_once)?;
                 let row = BenchRow {
                     method: name,
                     device: compute.describe(),
@@ -169,8 +147,43 @@ pub fn run(args: &BenchArgs, quiet: bool) -> Result<()> {
     Ok(())
 }
 
+/// The devices a benchmark times for `choice`: auto takes the CPU and, when an adapter
+/// opens, the GPU.
+pub(crate) fn devices(choice: DeviceChoice, quiet: bool) -> Result<Vec<Compute>> {
+    let mut devices = vec![];
+    if choice != DeviceChoice::Gpu {
+        devices.push(Compute::Cpu);
+    }
+    if choice != DeviceChoice::Cpu {
+        match Compute::resolve(DeviceChoice::Gpu) {
+            Ok((gpu, _)) => devices.push(gpu),
+            Err(e) if choice == DeviceChoice::Auto => {
+                if !quiet {
+                    eprintln!("no GPU timings: {e}");
+                }
+            }
+            Err(e) => return Err(e),
+        }
+    }
+    Ok(devices)
+}
+
+/// Milliseconds of `repeats` runs of `run` after one untimed warm-up run (shader compilation
+/// and first-touch allocation), sorted.
+pub(crate) fn timed<T>(repeats: usize, run: impl Fn() -> Result<T>) -> Result<Vec<f64>> {
+    run()?;
+    let mut times: Vec<f64> = (0..repeats)
+        .map(|_| {
+            let t = Instant::now();
+            run().map(|_| t.elapsed().as_secs_f64() * 1e3)
+        })
+        .collect::<Result<_>>()?;
+    times.sort_by(f64::total_cmp);
+    Ok(times)
+}
+
 /// Median of sorted values.
-fn median(sorted: &[f64]) -> f64 {
+pub(crate) fn median(sorted: &[f64]) -> f64 {
     let n = sorted.len();
     if n % 2 == 1 {
         sorted[n / 2]

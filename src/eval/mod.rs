@@ -1,3 +1,5 @@
 //! Evaluation: benchmarks and error metrics.
 pub mod bench;
 pub mod cycles;
+pub mod vao_accuracy;
+pub mod vao_bench;

@@ -17,6 +17,14 @@ const SOURCES: &[(&str, &str)] = &[
         include_str!("../../shaders/sample_volume.wgsl"),
     ),
     ("raycast.wgsl", include_str!("../../shaders/raycast.wgsl")),
+    (
+        "vao_stats.wgsl",
+        include_str!("../../shaders/vao_stats.wgsl"),
+    ),
+    (
+        "vao_estimate.wgsl",
+        include_str!("../../shaders/vao_estimate.wgsl"),
+    ),
 ];
 
 const INCLUDE: &str = "//#include";

@@ -1,0 +1,147 @@
+//! `occlux bench-ao`: times VAO volumes (statistics and the estimate; the classification into
+//! extinction is done once, untimed) at several radii on the CPU and the GPU, medians after a
+//! warm-up, on a crop of a CT to the 256 x 256 x 113. Prints a table with t(r) / t(4)
+//! and writes JSON.
+
+use super::bench::{devices, median, timed};
+use crate::ao::vao::{ao_volume, Estimator, FieldKind, ScalarField, VaoParams};
+use crate::error::{Error, Result};
+use crate::export::atomic::write_bytes_atomic;
+use crate::gpu::DeviceChoice;
+use crate::progress::NoProgress;
+use crate::scene::{Scene, SourceKind};
+use crate::volume::Volume;
+use serde::Serialize;
+use std::path::{Path, PathBuf};
+
+/// The engine scene supplies the classification.
+const BENCH_SCENE: &str = include_str!("../../examples/engine.toml");
+
+#[derive(clap::Args, Debug)]
+pub struct VaoBenchArgs {
+    /// CT volume to crop (classified with the engine scene's transfer function).
+    #[arg(long, default_value = "../shared/data/scivis/engine.nrrd")]
+    pub volume: PathBuf,
+    /// Slices kept along z, from the middle of the volume (the crop is 113).
+    #[arg(long, default_value_t = 113)]
+    pub slices: usize,
+    /// Radii in voxels.
+    #[arg(long, value_delimiter = ',', default_value = "4,5,10,16")]
+    pub radii: Vec<u32>,
+    #[arg(long, default_value = "cdf")]
+    pub method: String,
+    #[arg(long, default_value_t = 7)]
+    pub repeats: usize,
+    #[arg(long, value_enum, default_value = "auto")]
+    pub device: DeviceChoice,
+    #[arg(short, long, default_value = "occlux-bench-ao.json")]
+    pub out: PathBuf,
+}
+
+#[derive(Serialize, Debug)]
+struct Row {
+    device: String,
+    radius: u32,
+    median_ms: f64,
+    min_ms: f64,
+    max_ms: f64,
+    /// Median over the median at the smallest radius timed on the same device.
+    ratio_to_smallest_radius: f64,
+}
+
+#[derive(Serialize)]
+struct Report<'a> {
+    volume: String,
+    dims: [usize; 3],
+    method: &'a str,
+    cpu_threads: usize,
+    repeats: usize,
+    rows: &'a [Row],
+}
+
+/// The middle `slices` slices of `volume` along z.
+fn crop_z(volume: &Volume, slices: usize) -> Result<Volume> {
+    let [nx, ny, nz] = volume.dims();
+    if slices == 0 || slices > nz {
+        return Err(Error::param(
+            "--slices",
+            format!("must be in [1, {nz}] for this volume, got {slices}"),
+        ));
+    }
+    let z0 = (nz - slices) / 2;
+    let slice = nx * ny;
+    let values = volume.values()[z0 * slice..(z0 + slices) * slice].to_vec();
+    let origin = volume.origin() + glam::Vec3::new(0.0, 0.0, z0 as f32) * volume.spacing();
+    Volume::new([nx, ny, slices], volume.spacing(), origin, values)
+}
+
+pub fn run(args: &VaoBenchArgs, quiet: bool) -> Result<()> {
+    if args.repeats == 0 || args.radii.is_empty() {
+        return Err(Error::param(
+            "--repeats/--radii",
+            "need at least one repeat and one radius",
+        ));
+    }
+    let estimator: Estimator = args.method.parse()?;
+    if estimator == Estimator::Exact {
+        return Err(Error::param(
+            "--method",
+            "the exact count is a reference, not a timed method",
+        ));
+    }
+    let mut scene = Scene::parse(BENCH_SCENE, Path::new("."))?;
+    scene.volume.kind = SourceKind::File(args.volume.clone());
+    let volume = crop_z(&scene.load_volume()?, args.slices)?;
+    let field = ScalarField::new(&volume, &scene.classification, FieldKind::Extinction)?;
+    let mut rows = vec![];
+    for compute in devices(args.device, quiet)? {
+        let mut first = None;
+        for &radius in &args.radii {
+            let params = VaoParams {
+                radius,
+                estimator,
+                variance: false,
+            };
+            let times = timed(args.repeats, || {
+                ao_volume(&compute, &field, &params, &NoProgress)
+            })?;
+            let m = median(&times);
+            let base = *first.get_or_insert(m);
+            let row = Row {
+                device: compute.describe(),
+                radius,
+                median_ms: m,
+                min_ms: times[0],
+                max_ms: times[times.len() - 1],
+                ratio_to_smallest_radius: m / base,
+            };
+            if !quiet {
+                println!(
+                    "r = {:>3}  {:>9.1} ms (min {:.1}, max {:.1})  x{:.3}  {}",
+                    row.radius,
+                    row.median_ms,
+                    row.min_ms,
+                    row.max_ms,
+                    row.ratio_to_smallest_radius,
+                    row.device
+                );
+            }
+            rows.push(row);
+        }
+    }
+    let report = Report {
+        volume: args.volume.display().to_string(),
+        dims: volume.dims(),
+        method: estimator.name(),
+        cpu_threads: rayon::current_num_threads(),
+        repeats: args.repeats,
+        rows: &rows,
+    };
+    let json =
+        serde_json::to_string_pretty(&report).map_err(|e| Error::param("bench", e.to_string()))?;
+    write_bytes_atomic(&args.out, json.as_bytes())?;
+    if !quiet {
+        println!("wrote {}", args.out.display());
+    }
+    Ok(())
+}
