@@ -31,8 +31,8 @@ struct Params {
     background: vec4<f32>,
     lut_range: vec4<f32>,      // value min, value max, gradient max (0: 1D table), unused
     lut_size: vec4<f32>,       // entries along value, along gradient
-    march: vec4<f32>,          // step, ERT threshold, normal threshold, shading (0 unshaded, 1 gradient)
-    phong: vec4<f32>,          // specular, shininess, light count, unused
+    march: vec4<f32>,          // step, ERT threshold, normal threshold, shading (0 unshaded, 1 gradient, 2 AO, 3 AO + gradient)
+    phong: vec4<f32>,          // specular, shininess, light count, opacity modulation (1)
     band: vec4<f32>,           // first row of this dispatch, rows in it
     cells: vec4<f32>,          // occupancy cells along x, y, z; voxels per cell
     lights: array<Light, 8>,
@@ -51,6 +51,10 @@ struct Optical {
 @group(0) @binding(4) var<storage, read_write> out_rgba: array<vec4<f32>>;
 @group(0) @binding(5) var<storage, read_write> out_depth: array<f32>;
 @group(0) @binding(6) var<storage, read> occupancy: array<u32>;
+// AO shading: openness and the opacity modulation factor on the volume's grid (one-voxel
+// stand-ins otherwise), sampled with the volume's sampler.
+@group(0) @binding(7) var ao_openness: texture_3d<f32>;
+@group(0) @binding(8) var ao_opacity: texture_3d<f32>;
 
 // The occupancy cell holding index coordinate c (Occupancy::cell_of).
 fn cell_of(c: vec3<f32>) -> vec3<u32> {
@@ -81,6 +85,11 @@ fn cell_exit(cell: vec3<u32>, c0: vec3<f32>, dc: vec3<f32>) -> f32 {
 fn sample_at(p: vec3<f32>) -> f32 {
     let c = (p - params.vol_origin.xyz) / params.vol_spacing.xyz;
     return sample_volume(volume, volume_sampler, c, params.vol_dims.xyz);
+}
+
+fn ao_at(tex: texture_3d<f32>, p: vec3<f32>) -> f32 {
+    let c = (p - params.vol_origin.xyz) / params.vol_spacing.xyz;
+    return sample_volume(tex, volume_sampler, c, params.vol_dims.xyz);
 }
 
 fn gradient_at(p: vec3<f32>) -> vec3<f32> {
@@ -144,14 +153,21 @@ fn emitted(o: Optical, alpha: f32, dt: f32) -> vec3<f32> {
 
 fn in_scattered(o: Optical, p: vec3<f32>, grad: vec3<f32>, dir: vec3<f32>) -> vec3<f32> {
     let count = u32(params.phong.z);
-    let ambient = params.ambient.xyz;
+    let shading = params.march.w;
+    var ambient = params.ambient.xyz;
+    if (shading >= 2.0) {
+        ambient = ambient * ao_at(ao_openness, p);
+    }
     var l = vec3<f32>(0.0);
-    if (params.march.w == 0.0) {
+    if (shading == 0.0) {
         var direct = vec3<f32>(0.0);
         for (var i = 0u; i < count; i = i + 1u) {
             direct = direct + incident(i, p, &l);
         }
         return o.albedo * (ambient + direct / (4.0 * PI));
+    }
+    if (shading == 2.0) {
+        return o.albedo * ambient;
     }
     let gm = length(grad);
     let w = min(gm / params.march.z, 1.0);
@@ -220,7 +236,7 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
     let ert = params.march.y;
     // A 2D table needs the gradient to classify; shading needs it only where there is matter.
     let table_2d = params.lut_range.z > 0.0;
-    let shaded = params.march.w == 1.0;
+    let shaded = params.march.w == 1.0 || params.march.w == 3.0;
     let steps = u32(ceil((span.y - span.x) / step));
     var radiance = vec3<f32>(0.0);
     var transmittance = 1.0;
@@ -251,7 +267,10 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
         if (table_2d) {
             grad = gradient_at(p);
         }
-        let o = lookup(value, length(grad));
+        var o = lookup(value, length(grad));
+        if (params.phong.w == 1.0) {
+            o.sigma_t = o.sigma_t * ao_at(ao_opacity, p);
+        }
         if (o.sigma_t <= 0.0 && all(o.emission == vec3<f32>(0.0))) {
             continue;
         }

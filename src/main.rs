@@ -3,13 +3,13 @@
 use clap::{Parser, Subcommand};
 use indicatif::{ProgressBar, ProgressStyle};
 use occlux::ao::reference::{ao_reference, AoReferenceParams, AoVariant};
+use occlux::ao::vao::{self, FieldKind, ScalarField, VaoParams};
 use occlux::eval::{bench, vao_accuracy, vao_bench};
 use occlux::export::exr::Precision;
 use occlux::export::vdb::{write_vdb, Compression, VdbGrid, VdbOptions};
 use occlux::gpu::{Compute, DeviceChoice};
-use occlux::pipeline::{self, OutputOptions};
+use occlux::pipeline::{self, OutputOptions, Rendered};
 use occlux::render::reference::{Estimator, ReferenceInput, ReferenceParams};
-use occlux::render::RenderImage;
 use occlux::scene::Scene;
 use occlux::volume::{self, LoadOptions, RawSpec, ScalarType, Volume};
 use std::path::{Path, PathBuf};
@@ -134,6 +134,33 @@ enum Command {
         #[arg(short, long, default_value = "occlux-out")]
         out: PathBuf,
     },
+    /// AO volume of the scene's classified volume (VAO: Ruiz, Szirmay-Kalos et al.):
+    /// OUT/STEM-ao.vdb (grid `ao`, openness 1 = unoccluded; `ao_variance` with --variance),
+    /// OUT/STEM-ao.png (the middle z slice) and OUT/STEM-ao.json (parameters and timing).
+    Ao {
+        scene: PathBuf,
+        /// cdf, gauss (Winitzki's erf), gauss-exact, penner, or exact (the voxel count: slow).
+        #[arg(long, default_value = "cdf")]
+        method: String,
+        /// Tangent-sphere radius in voxels.
+        #[arg(long, default_value_t = 10)]
+        radius: u32,
+        /// extinction (the classified sigma_t) or value (the raw values).
+        #[arg(long, default_value = "extinction")]
+        field: String,
+        /// Also write the local variance (grid `ao_variance`).
+        #[arg(long)]
+        variance: bool,
+        #[arg(short, long, default_value = "occlux-out")]
+        out: PathBuf,
+        /// Where to compute: auto picks a GPU adapter if one opens, else the CPU.
+        #[arg(long, value_enum, default_value = "auto")]
+        device: DeviceChoice,
+        #[arg(long, value_enum, default_value = "zip")]
+        compression: VdbCompression,
+        #[arg(long)]
+        half: bool,
+    },
     /// Compare the scene's Monte Carlo reference with Cycles (runs the Python harness
     /// `occlux.cycles` in the venv that .ci/run creates: .venv, or $OCCLUX_PYTHON).
     CheckCycles {
@@ -169,6 +196,15 @@ enum VdbCompression {
     Zip,
 }
 
+impl From<VdbCompression> for Compression {
+    fn from(c: VdbCompression) -> Self {
+        match c {
+            VdbCompression::None => Compression::None,
+            VdbCompression::Zip => Compression::Zip,
+        }
+    }
+}
+
 #[derive(clap::Args)]
 struct OutputArgs {
     /// Where to compute: auto picks a GPU adapter if one opens, else the CPU.
@@ -199,8 +235,9 @@ fn run(cli: Cli) -> occlux::Result<()> {
         Command::Render { scene, out, output } => {
             let parsed = Scene::from_file(&scene)?;
             let options = output.options()?;
-            let (img, _) = render_scene(&parsed, &output, quiet)?;
-            let written = pipeline::write_render(&img, &parsed, &out, &stem(&scene), &options)?;
+            let (rendered, _) = render_scene(&parsed, &output, quiet)?;
+            let written =
+                pipeline::write_render(&rendered.image, &parsed, &out, &stem(&scene), &options)?;
             report_written(&written, quiet);
             Ok(())
         }
@@ -214,23 +251,27 @@ fn run(cli: Cli) -> occlux::Result<()> {
             let parsed = Scene::from_file(&scene)?;
             let options = output.options()?;
             let vdb = VdbOptions {
-                compression: match compression {
-                    VdbCompression::None => Compression::None,
-                    VdbCompression::Zip => Compression::Zip,
-                },
+                compression: compression.into(),
                 half,
             };
-            let (img, volume) = render_scene(&parsed, &output, quiet)?;
-            let written =
-                pipeline::export(&img, &parsed, &volume, &out, &stem(&scene), &options, &vdb)?;
+            let (rendered, volume) = render_scene(&parsed, &output, quiet)?;
+            let written = pipeline::export(
+                &rendered,
+                &parsed,
+                &volume,
+                &out,
+                &stem(&scene),
+                &options,
+                &vdb,
+            )?;
             report_written(&written, quiet);
             Ok(())
         }
         Command::Demo { out, output } => {
             let scene = Scene::parse(DEMO_SCENE, Path::new("."))?;
             let options = output.options()?;
-            let (img, _) = render_scene(&scene, &output, quiet)?;
-            let written = pipeline::write_render(&img, &scene, &out, "demo", &options)?;
+            let (rendered, _) = render_scene(&scene, &output, quiet)?;
+            let written = pipeline::write_render(&rendered.image, &scene, &out, "demo", &options)?;
             report_written(&written, quiet);
             Ok(())
         }
@@ -279,6 +320,29 @@ fn run(cli: Cli) -> occlux::Result<()> {
             seed,
             out,
         } => ao_reference_volume(&scene, variant, samples, radius, seed, &out, quiet),
+        Command::Ao {
+            scene,
+            method,
+            radius,
+            field,
+            variance,
+            out,
+            device,
+            compression,
+            half,
+        } => {
+            let params = VaoParams {
+                radius,
+                estimator: method.parse()?,
+                variance,
+            };
+            let vdb = VdbOptions {
+                compression: compression.into(),
+                half,
+            };
+            let field = field.parse()?;
+            ao_volume_command(&scene, &params, field, device, &out, &vdb, quiet)
+        }
         Command::CheckCycles {
             scene,
             estimator,
@@ -286,6 +350,59 @@ fn run(cli: Cli) -> occlux::Result<()> {
             out,
         } => occlux::eval::cycles::run(&scene, estimator.as_str(), spp, &out),
     }
+}
+
+/// Computes a VAO volume with progress and timing, and writes it.
+fn ao_volume_command(
+    scene: &Path,
+    params: &VaoParams,
+    field: FieldKind,
+    device: DeviceChoice,
+    out: &Path,
+    vdb: &VdbOptions,
+    quiet: bool,
+) -> occlux::Result<()> {
+    params.validate()?;
+    let parsed = Scene::from_file(scene)?;
+    let (compute, notice) = Compute::resolve(device)?;
+    if let (Some(notice), false) = (notice, quiet) {
+        eprintln!("{notice}");
+    }
+    let volume = parsed.load_volume()?;
+    let started = Instant::now();
+    let scalar = ScalarField::new(&volume, &parsed.classification, field)?;
+    let field_ms = started.elapsed().as_secs_f64() * 1e3;
+    // The exact count is a CPU reference whatever the device.
+    let on = if params.estimator == vao::Estimator::Exact {
+        Compute::Cpu.describe()
+    } else {
+        compute.describe()
+    };
+    let bar = progress_bar(quiet, 1, "ao volume");
+    let started = Instant::now();
+    let ao = vao::ao_volume(&compute, &scalar, params, &bar)?;
+    let ao_ms = started.elapsed().as_secs_f64() * 1e3;
+    bar.0.finish_and_clear();
+    if !quiet {
+        println!(
+            "{} AO volume, radius {} voxels: field in {field_ms:.1} ms, AO in {ao_ms:.1} ms on {on}",
+            params.estimator.name(),
+            params.radius
+        );
+    }
+    let record = serde_json::json!({
+        "scene": scene.display().to_string(),
+        "method": params.estimator.name(),
+        "radius_voxels": params.radius,
+        "field": match field { FieldKind::Extinction => "extinction", FieldKind::Value => "value" },
+        "dims": volume.dims(),
+        "device": on,
+        "field_ms": field_ms,
+        "ao_ms": ao_ms,
+    });
+    let written = pipeline::write_ao(&ao, &record, out, &stem(scene), vdb)?;
+    report_written(&written, quiet);
+    Ok(())
 }
 
 /// Estimates a reference AO volume and writes it as OUT/STEM-ao-VARIANT.vdb.
@@ -408,7 +525,7 @@ fn render_scene(
     scene: &Scene,
     output: &OutputArgs,
     quiet: bool,
-) -> occlux::Result<(RenderImage, Volume)> {
+) -> occlux::Result<(Rendered, Volume)> {
     let (compute, notice) = Compute::resolve(output.device)?;
     if let (Some(notice), false) = (notice, quiet) {
         eprintln!("{notice}");
@@ -428,7 +545,8 @@ fn render_scene(
     ));
     let bar = progress_bar(quiet, scene.camera.height as u64, "rendering");
     let render_start = Instant::now();
-    let img = pipeline::render(scene, &volume, &compute, &bar)?;
+    let rendered = pipeline::render(scene, &volume, &compute, &bar)?;
+    let img = &rendered.image;
     bar.0.finish_and_clear();
     say(format!(
         "rendered {}x{} in {:.2} s",
@@ -436,7 +554,7 @@ fn render_scene(
         img.height,
         render_start.elapsed().as_secs_f64()
     ));
-    Ok((img, volume))
+    Ok((rendered, volume))
 }
 
 /// An indicatif bar (hidden when quiet) that the library's work reports to.

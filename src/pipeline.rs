@@ -1,12 +1,15 @@
 //! Runs a scene end to end: load, classify, render on the chosen device, write the outputs.
 
+use crate::ao::vao::AoVolume;
 use crate::error::{Error, Result};
+use crate::export::atomic::write_bytes_atomic;
 use crate::export::exr::{render_layers, write_exr, ExrLayer, Precision};
 use crate::export::png::write_png_preview;
 use crate::export::usd::{write_usda, StageDescription};
 use crate::export::vdb::{write_vdb, VdbGrid, VdbOptions};
 use crate::gpu::Compute;
 use crate::progress::Progress;
+use crate::render::ao_shaded::{self, View};
 use crate::render::raycast::{self, RaycastInput};
 use crate::render::reference::{Estimator, ReferenceImage, ReferenceParams};
 use crate::render::RenderImage;
@@ -15,13 +18,20 @@ use crate::volume::Volume;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
+/// A scene's render and the grids its method computed on the way.
+pub struct Rendered {
+    pub image: RenderImage,
+    /// The AO volume of AO-shaded rendering.
+    pub ao: Option<AoVolume>,
+}
+
 /// Renders a scene's method for an already loaded volume.
 pub fn render(
     scene: &Scene,
     volume: &Volume,
     compute: &Compute,
     progress: &dyn Progress,
-) -> Result<RenderImage> {
+) -> Result<Rendered> {
     let lut = scene.classification.bake(volume);
     match &scene.method {
         Method::Raycast(params) => {
@@ -31,8 +41,31 @@ pub fn render(
                 camera: &scene.camera,
                 lighting: &scene.lighting,
                 params,
+                ao: None,
             };
-            raycast::render(compute, &input, progress)
+            Ok(Rendered {
+                image: raycast::render(compute, &input, progress)?,
+                ao: None,
+            })
+        }
+        Method::AoShaded(params) => {
+            let view = View {
+                camera: &scene.camera,
+                lighting: &scene.lighting,
+            };
+            let (image, ao) = ao_shaded::render(
+                compute,
+                volume,
+                &scene.classification,
+                &lut,
+                &view,
+                params,
+                progress,
+            )?;
+            Ok(Rendered {
+                image,
+                ao: Some(ao),
+            })
         }
     }
 }
@@ -152,15 +185,19 @@ fn write_image_files(
     Ok(vec![exr_path, png_path])
 }
 
-/// The grids `export` writes: extinction per scene unit, and the volume's own values.
+/// The grids `export` writes for every method: extinction per scene unit, and the volume's
+/// own values; AO-shaded rendering adds [`AO_GRID`] and, on request, [`AO_VARIANCE_GRID`].
 pub const EXPORT_GRIDS: [&str; 2] = ["density", "value"];
+pub const AO_GRID: &str = "ao";
+pub const AO_VARIANCE_GRID: &str = "ao_variance";
 
 /// Writes a scene's exchange files into `out_dir`: the render (`STEM.exr`, `STEM.png`), the
-/// grids (`STEM.vdb`: `density`, the classified extinction sigma_t per scene unit, and `value`,
-/// the volume's values) and a USD stage (`STEM.usda`) whose volume points at those grids, with
-/// the scene's camera and lights. Returns the paths written.
+/// grids (`STEM.vdb`: `density`, the classified extinction sigma_t per scene unit, `value`,
+/// the volume's values, and the AO volume's grids when the method computed one) and a USD
+/// stage (`STEM.usda`) whose volume points at those grids, with the scene's camera and lights.
+/// Returns the paths written.
 pub fn export(
-    img: &RenderImage,
+    rendered: &Rendered,
     scene: &Scene,
     volume: &Volume,
     out_dir: &Path,
@@ -169,31 +206,77 @@ pub fn export(
     vdb: &VdbOptions,
 ) -> Result<Vec<PathBuf>> {
     let vdb_name = format!("{stem}.vdb");
+    let extinction = scene.classification.extinction(volume)?;
+    let mut grids = vec![
+        VdbGrid::from_volume(EXPORT_GRIDS[0], &extinction),
+        VdbGrid::from_volume(EXPORT_GRIDS[1], volume),
+    ];
+    if let Some(ao) = &rendered.ao {
+        grids.extend(ao_grids(ao));
+    }
+    let names: Vec<&str> = grids.iter().map(|g| g.name).collect();
     let stage = StageDescription::new(
         &vdb_name,
-        &EXPORT_GRIDS,
+        &names,
         volume.bounds(),
         &scene.camera,
         &scene.lighting.lights,
     )?;
-    let extinction = scene.classification.extinction(volume)?;
     // The grids go first: an empty or invalid grid is the likeliest failure, and it stops the
     // export before anything is written.
     std::fs::create_dir_all(out_dir).map_err(|e| Error::io(out_dir, e))?;
     let vdb_path = out_dir.join(&vdb_name);
-    write_vdb(
-        &vdb_path,
-        &[
-            VdbGrid::from_volume(EXPORT_GRIDS[0], &extinction),
-            VdbGrid::from_volume(EXPORT_GRIDS[1], volume),
-        ],
-        vdb,
-    )?;
+    write_vdb(&vdb_path, &grids, vdb)?;
     let usd_path = out_dir.join(format!("{stem}.usda"));
     write_usda(&usd_path, &stage)?;
-    let mut written = write_render(img, scene, out_dir, stem, output)?;
+    let mut written = write_render(&rendered.image, scene, out_dir, stem, output)?;
     written.extend([vdb_path, usd_path]);
     Ok(written)
+}
+
+/// The VDB grids of an AO volume: `ao` (openness) and `ao_variance` if it was computed.
+pub fn ao_grids(ao: &AoVolume) -> Vec<VdbGrid<'_>> {
+    let mut grids = vec![VdbGrid::from_volume(AO_GRID, &ao.openness)];
+    if let Some(variance) = &ao.variance {
+        grids.push(VdbGrid::from_volume(AO_VARIANCE_GRID, variance));
+    }
+    grids
+}
+
+/// Writes an AO volume: `OUT/STEM-ao.vdb` (grids `ao` and, if computed, `ao_variance`),
+/// `OUT/STEM-ao.png` (the openness of the middle z slice, +y up) and `OUT/STEM-ao.json`
+/// (`record`: parameters and timing). Returns the paths written.
+pub fn write_ao(
+    ao: &AoVolume,
+    record: &serde_json::Value,
+    out_dir: &Path,
+    stem: &str,
+    vdb: &VdbOptions,
+) -> Result<Vec<PathBuf>> {
+    std::fs::create_dir_all(out_dir).map_err(|e| Error::io(out_dir, e))?;
+    let vdb_path = out_dir.join(format!("{stem}-ao.vdb"));
+    write_vdb(&vdb_path, &ao_grids(ao), vdb)?;
+    let png_path = out_dir.join(format!("{stem}-ao.png"));
+    write_png_preview(&png_path, &middle_slice(&ao.openness), 1.0)?;
+    let json_path = out_dir.join(format!("{stem}-ao.json"));
+    let text =
+        serde_json::to_string_pretty(record).map_err(|e| Error::param("json", e.to_string()))?;
+    write_bytes_atomic(&json_path, text.as_bytes())?;
+    Ok(vec![vdb_path, png_path, json_path])
+}
+
+/// The middle z slice of `volume` as a grey image, row 0 at the largest y.
+fn middle_slice(volume: &Volume) -> RenderImage {
+    let [nx, ny, nz] = volume.dims();
+    let mut image = RenderImage::new(nx as u32, ny as u32);
+    for (row, pixels) in image.rgba.chunks_mut(nx).enumerate() {
+        let j = ny - 1 - row;
+        for (i, p) in pixels.iter_mut().enumerate() {
+            let v = volume.at(i, j, nz / 2);
+            *p = [v, v, v, 1.0];
+        }
+    }
+    image
 }
 
 /// Camera and method parameters for the EXR header, as JSON text.

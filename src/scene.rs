@@ -29,9 +29,26 @@
 //! irradiance = 3
 //!
 //! [render]
-//! method = "gradient"                          # or "unshaded"
+//! method = "gradient"                          # or "unshaded", or "ao" (below)
+//! ```
+//!
+//! AO-shaded DVR (the VAO paper): `method = "ao"` computes an AO volume first, then renders
+//! with the ambient light times its openness, plus gradient-shaded direct light unless
+//! `direct = false`:
+//!
+//! ```toml
+//! [render]
+//! method = "ao"
+//! ao_method = "cdf"             # cdf, gauss, gauss-exact, penner or exact
+//! ao_radius = 10                # tangent-sphere radius in voxels
+//! ao_field = "extinction"       # or "value": the raw values
+//! ao_variance = false           # also export the `ao_variance` grid
+//! opacity_modulation = false    # alpha' = alpha min(variance / variance_max, 1)
+//! # variance_max = 25.0         # default: the largest local variance
+//! direct = true
 //! ```
 
+use crate::ao::vao::{FieldKind, VaoParams};
 use crate::camera::{Camera, Projection};
 use crate::classify::{
     presets, Classification, ControlPoint, TransferFunction, TransferFunction1D,
@@ -39,6 +56,7 @@ use crate::classify::{
 };
 use crate::error::{Error, Result};
 use crate::lights::{Light, Lighting};
+use crate::render::ao_shaded::AoRenderParams;
 use crate::render::raycast::{GradientShading, RaycastParams, Shading};
 use crate::volume::{self, phantom, LoadOptions, NonFinite, RawSpec, ScalarType, Volume};
 use glam::Vec3;
@@ -76,10 +94,12 @@ pub enum SourceKind {
 #[derive(Clone, Debug, PartialEq)]
 pub enum Method {
     Raycast(RaycastParams),
+    /// AO-shaded DVR: a VAO volume, then the ray caster shading with it.
+    AoShaded(AoRenderParams),
 }
 
 /// The method names a scene accepts.
-pub const METHODS: &[&str] = &["unshaded", "gradient"];
+pub const METHODS: &[&str] = &["unshaded", "gradient", "ao"];
 
 impl Scene {
     /// Reads and validates a scene file; relative volume paths are resolved against its folder.
@@ -288,6 +308,13 @@ struct RenderSection {
     specular: Option<f32>,
     shininess: Option<f32>,
     normal_threshold: Option<f32>,
+    ao_method: Option<String>,
+    ao_radius: Option<u32>,
+    ao_field: Option<String>,
+    ao_variance: Option<bool>,
+    opacity_modulation: Option<bool>,
+    variance_max: Option<f32>,
+    direct: Option<bool>,
 }
 
 impl Default for RenderSection {
@@ -299,6 +326,13 @@ impl Default for RenderSection {
             specular: None,
             shininess: None,
             normal_threshold: None,
+            ao_method: None,
+            ao_radius: None,
+            ao_field: None,
+            ao_variance: None,
+            opacity_modulation: None,
+            variance_max: None,
+            direct: None,
         }
     }
 }
@@ -528,12 +562,23 @@ impl LightSection {
 
 impl RenderSection {
     fn resolve(self) -> Result<Method> {
+        let is_ao = self.method == "ao";
+        if !is_ao {
+            self.refuse_ao_keys()?;
+        }
+        let gradient = || {
+            let d = GradientShading::default();
+            GradientShading {
+                specular: self.specular.unwrap_or(d.specular),
+                shininess: self.shininess.unwrap_or(d.shininess),
+                normal_threshold: self.normal_threshold.unwrap_or(d.normal_threshold),
+            }
+        };
+        let has_gradient_keys =
+            self.specular.is_some() || self.shininess.is_some() || self.normal_threshold.is_some();
         let shading = match self.method.as_str() {
             "unshaded" => {
-                if self.specular.is_some()
-                    || self.shininess.is_some()
-                    || self.normal_threshold.is_some()
-                {
+                if has_gradient_keys {
                     return Err(Error::param(
                         "render.specular",
                         "specular, shininess and normal_threshold are for method = \"gradient\"",
@@ -541,13 +586,18 @@ impl RenderSection {
                 }
                 Shading::Unshaded
             }
-            "gradient" => {
-                let d = GradientShading::default();
-                Shading::Gradient(GradientShading {
-                    specular: self.specular.unwrap_or(d.specular),
-                    shininess: self.shininess.unwrap_or(d.shininess),
-                    normal_threshold: self.normal_threshold.unwrap_or(d.normal_threshold),
-                })
+            "gradient" => Shading::Gradient(gradient()),
+            "ao" => {
+                let direct = self.direct.unwrap_or(true);
+                if !direct && has_gradient_keys {
+                    return Err(Error::param(
+                        "render.specular",
+                        "specular, shininess and normal_threshold shade direct light: not with direct = false",
+                    ));
+                }
+                Shading::AmbientOcclusion {
+                    direct: direct.then(gradient),
+                }
             }
             other => {
                 return Err(Error::param(
@@ -562,6 +612,57 @@ impl RenderSection {
             ert_threshold: self.ert_threshold,
         };
         params.validate()?;
-        Ok(Method::Raycast(params))
+        if !is_ao {
+            return Ok(Method::Raycast(params));
+        }
+        let defaults = VaoParams::default();
+        let ao = AoRenderParams {
+            raycast: params,
+            vao: VaoParams {
+                radius: self.ao_radius.unwrap_or(defaults.radius),
+                estimator: match &self.ao_method {
+                    Some(name) => name
+                        .parse()
+                        .map_err(|e: Error| Error::param("render.ao_method", e.to_string()))?,
+                    None => defaults.estimator,
+                },
+                variance: self.ao_variance.unwrap_or(false),
+            },
+            field: match &self.ao_field {
+                Some(name) => name
+                    .parse()
+                    .map_err(|e: Error| Error::param("render.ao_field", e.to_string()))?,
+                None => FieldKind::default(),
+            },
+            opacity_modulation: self.opacity_modulation.unwrap_or(false),
+            variance_max: self.variance_max,
+        };
+        ao.validate().map_err(|e| match e {
+            Error::Param { key, message } if !key.starts_with("render.") => {
+                Error::param(format!("render.ao_{key}"), message)
+            }
+            other => other,
+        })?;
+        Ok(Method::AoShaded(ao))
+    }
+
+    /// The AO keys belong to method = "ao".
+    fn refuse_ao_keys(&self) -> Result<()> {
+        let keys = [
+            ("ao_method", self.ao_method.is_some()),
+            ("ao_radius", self.ao_radius.is_some()),
+            ("ao_field", self.ao_field.is_some()),
+            ("ao_variance", self.ao_variance.is_some()),
+            ("opacity_modulation", self.opacity_modulation.is_some()),
+            ("variance_max", self.variance_max.is_some()),
+            ("direct", self.direct.is_some()),
+        ];
+        match keys.iter().find(|(_, given)| *given) {
+            Some((key, _)) => Err(Error::param(
+                format!("render.{key}"),
+                "is for method = \"ao\"",
+            )),
+            None => Ok(()),
+        }
     }
 }

@@ -51,7 +51,9 @@ fn demo_writes_the_render_the_library_computes() {
 
     let scene = Scene::parse(include_str!("../examples/demo.toml"), Path::new(".")).unwrap();
     let volume = scene.load_volume().unwrap();
-    let img = pipeline::render(&scene, &volume, &Compute::Cpu, &NoProgress).unwrap();
+    let img = pipeline::render(&scene, &volume, &Compute::Cpu, &NoProgress)
+        .unwrap()
+        .image;
 
     let beauty = exr_layer(&out.path().join("demo.exr"), "beauty");
     let names: Vec<&str> = beauty.iter().map(|(n, _)| n.as_str()).collect();
@@ -285,4 +287,139 @@ fn reference_and_check_cycles_refuse_bad_requests() {
         !run.status.success() && err.contains("no-such-python"),
         "{err}"
     );
+}
+
+#[test]
+fn ao_writes_the_grids_slice_and_timing_the_library_computes() {
+    use occlux::ao::vao::{self, Estimator, FieldKind, ScalarField, VaoParams};
+    let out = tempfile::tempdir().unwrap();
+    let scene_path = small_scene(out.path());
+    let dir = out.path().join("ao");
+    let run = occlux(&[
+        "ao",
+        scene_path.to_str().unwrap(),
+        "--method",
+        "gauss",
+        "--radius",
+        "3",
+        "--variance",
+        "--device",
+        "cpu",
+        "--compression",
+        "none",
+        "-o",
+        dir.to_str().unwrap(),
+    ]);
+    assert!(
+        run.status.success(),
+        "{}",
+        String::from_utf8_lossy(&run.stderr)
+    );
+    let scene = Scene::from_file(&scene_path).unwrap();
+    let volume = scene.load_volume().unwrap();
+    let field = ScalarField::new(&volume, &scene.classification, FieldKind::Extinction).unwrap();
+    let params = VaoParams {
+        radius: 3,
+        estimator: Estimator::Gauss,
+        variance: true,
+    };
+    let ao = vao::ao_volume(&Compute::Cpu, &field, &params, &NoProgress).unwrap();
+    let file = std::io::BufReader::new(std::fs::File::open(dir.join("ball-ao.vdb")).unwrap());
+    let mut reader = vdb_rs::VdbReader::new(file).unwrap();
+    for (name, want) in [
+        ("ao", &ao.openness),
+        ("ao_variance", ao.variance.as_ref().unwrap()),
+    ] {
+        let grid = reader.read_grid::<f32>(name).unwrap();
+        let mut active = 0;
+        for (p, v, _) in grid.iter() {
+            let expected = want.at(p.x as usize, p.y as usize, p.z as usize);
+            assert_eq!(v, expected, "{name} at {p:?}");
+            active += 1;
+        }
+        let nonzero = want.values().iter().filter(|&&v| v != 0.0).count();
+        assert_eq!(active, nonzero, "{name}: every non-zero voxel is active");
+    }
+    let record: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("ball-ao.json")).unwrap()).unwrap();
+    assert_eq!(record["method"], "gauss");
+    assert_eq!(record["radius_voxels"], 3);
+    assert!(record["ao_ms"].as_f64().unwrap() > 0.0);
+    let png = png::Decoder::new(std::io::BufReader::new(
+        std::fs::File::open(dir.join("ball-ao.png")).unwrap(),
+    ))
+    .read_info()
+    .unwrap();
+    let [nx, ny, _] = volume.dims();
+    assert_eq!(
+        (png.info().width, png.info().height),
+        (nx as u32, ny as u32)
+    );
+
+    // Bad requests: named, and nothing written.
+    let bad = out.path().join("bad");
+    for (args, key) in [
+        (vec!["--method", "median"], "median"),
+        (vec!["--radius", "0"], "radius"),
+        (vec!["--field", "colour"], "colour"),
+    ] {
+        let mut all = vec![
+            "ao",
+            scene_path.to_str().unwrap(),
+            "-o",
+            bad.to_str().unwrap(),
+        ];
+        all.extend(args);
+        let run = occlux(&all);
+        let stderr = String::from_utf8_lossy(&run.stderr);
+        assert!(!run.status.success() && stderr.contains(key), "{stderr}");
+        assert!(!bad.exists());
+    }
+}
+
+#[test]
+fn ao_shaded_scenes_render_and_export_the_ao_grid() {
+    let out = tempfile::tempdir().unwrap();
+    let base = std::fs::read_to_string(small_scene(out.path())).unwrap();
+    let scene_path = out.path().join("ball-ao.toml");
+    std::fs::write(
+        &scene_path,
+        format!("{base}\n[render]\nmethod = \"ao\"\nao_radius = 3\nao_variance = true\nopacity_modulation = true\n"),
+    )
+    .unwrap();
+    let dir = out.path().join("export");
+    let run = occlux(&[
+        "export",
+        scene_path.to_str().unwrap(),
+        "--device",
+        "cpu",
+        "-o",
+        dir.to_str().unwrap(),
+    ]);
+    assert!(
+        run.status.success(),
+        "{}",
+        String::from_utf8_lossy(&run.stderr)
+    );
+    let scene = Scene::from_file(&scene_path).unwrap();
+    let volume = scene.load_volume().unwrap();
+    let rendered = pipeline::render(&scene, &volume, &Compute::Cpu, &NoProgress).unwrap();
+    let ao = rendered.ao.as_ref().unwrap();
+    let file = std::io::BufReader::new(std::fs::File::open(dir.join("ball-ao.vdb")).unwrap());
+    let mut reader = vdb_rs::VdbReader::new(file).unwrap();
+    let grid = reader.read_grid::<f32>("ao").unwrap();
+    for (p, v, _) in grid.iter() {
+        assert_eq!(v, ao.openness.at(p.x as usize, p.y as usize, p.z as usize));
+    }
+    assert!(reader.read_grid::<f32>("ao_variance").is_ok());
+    let usda = std::fs::read_to_string(dir.join("ball-ao.usda")).unwrap();
+    assert!(
+        usda.contains("\"ao\"") && usda.contains("\"ao_variance\""),
+        "{usda}"
+    );
+    let beauty = exr_layer(&dir.join("ball-ao.exr"), "beauty");
+    let red = &beauty.iter().find(|(c, _)| c == "R").unwrap().1;
+    for (got, want) in red.iter().zip(&rendered.image.rgba) {
+        assert!((got - want[0]).abs() <= 1e-3 * want[0].abs().max(1.0));
+    }
 }

@@ -49,6 +49,7 @@ fn render(volume: &Volume, lut: &Lut, camera: &Camera, lighting: &Lighting) -> R
         camera,
         lighting,
         params: &params,
+        ao: None,
     };
     cpu::render(&input, &NoProgress).unwrap()
 }

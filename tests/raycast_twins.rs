@@ -15,7 +15,9 @@ use occlux::classify::{presets, Classification};
 use occlux::gpu::{shared_context, GpuContext};
 use occlux::lights::{Light, Lighting};
 use occlux::progress::NoProgress;
-use occlux::render::raycast::{cpu, gpu, GradientShading, RaycastInput, RaycastParams, Shading};
+use occlux::render::raycast::{
+    cpu, gpu, AoFactors, GradientShading, RaycastInput, RaycastParams, Shading,
+};
 use occlux::render::{RenderImage, BACKGROUND_DEPTH};
 use occlux::volume::{phantom, Volume};
 
@@ -65,6 +67,16 @@ fn compare(
     camera: &Camera,
     params: &RaycastParams,
 ) -> f32 {
+    compare_with_ao(volume, classification, camera, params, None)
+}
+
+fn compare_with_ao(
+    volume: &Volume,
+    classification: &Classification,
+    camera: &Camera,
+    params: &RaycastParams,
+    ao: Option<AoFactors>,
+) -> f32 {
     let lut = classification.bake(volume);
     let lighting = lighting();
     let input = RaycastInput {
@@ -73,6 +85,7 @@ fn compare(
         camera,
         lighting: &lighting,
         params,
+        ao,
     };
     let on_cpu = cpu::render(&input, &NoProgress).unwrap();
     let on_gpu = gpu::render(&ctx(), &input, &NoProgress).unwrap();
@@ -126,6 +139,45 @@ fn gradient_shading_agrees_on_the_ct_phantom() {
         &perspective(64),
         &params,
     );
+}
+
+#[test]
+fn ambient_occlusion_shading_agrees_with_and_without_modulation_and_direct_light() {
+    use occlux::ao::vao::{self, FieldKind, ScalarField, VaoParams};
+    let volume = phantom::ct(48).unwrap();
+    let classification = presets::preset("ct-soft-tissue").unwrap();
+    let field = ScalarField::new(&volume, &classification, FieldKind::Extinction).unwrap();
+    let ao = vao::ao_volume(
+        &occlux::gpu::Compute::Cpu,
+        &field,
+        &VaoParams {
+            radius: 4,
+            variance: true,
+            ..VaoParams::default()
+        },
+        &NoProgress,
+    )
+    .unwrap();
+    let opacity = vao::opacity_modulation(ao.variance.as_ref().unwrap(), None).unwrap();
+    for direct in [None, Some(GradientShading::default())] {
+        for modulation in [None, Some(&opacity)] {
+            let params = RaycastParams {
+                shading: Shading::AmbientOcclusion { direct },
+                ..RaycastParams::default()
+            };
+            let factors = AoFactors {
+                openness: &ao.openness,
+                opacity: modulation,
+            };
+            compare_with_ao(
+                &volume,
+                &classification,
+                &perspective(48),
+                &params,
+                Some(factors),
+            );
+        }
+    }
 }
 
 #[test]

@@ -154,3 +154,51 @@ fn file_errors_name_the_file() {
     let err = Scene::from_file(&path).unwrap_err().to_string();
     assert!(err.contains("broken.toml"), "{err}");
 }
+
+#[test]
+fn ao_method_reads_its_keys_and_refuses_them_elsewhere() {
+    use occlux::ao::vao::{Estimator, FieldKind};
+    let scene = parse(&format!(
+        "{MINIMAL}\n[render]\nmethod = \"ao\"\nao_method = \"penner\"\nao_radius = 6\n\
+         ao_field = \"value\"\nopacity_modulation = true\nvariance_max = 2.5\ndirect = false\n"
+    ))
+    .unwrap();
+    let Method::AoShaded(p) = scene.method else {
+        panic!("{:?}", scene.method)
+    };
+    assert_eq!(p.vao.estimator, Estimator::Penner);
+    assert_eq!(p.vao.radius, 6);
+    assert_eq!(p.field, FieldKind::Value);
+    assert!(p.opacity_modulation && p.variance_max == Some(2.5));
+    assert_eq!(
+        p.raycast.shading,
+        Shading::AmbientOcclusion { direct: None }
+    );
+    // Defaults: CDF, radius 10, extinction, gradient-shaded direct light.
+    let scene = parse(&format!("{MINIMAL}\n[render]\nmethod = \"ao\"\n")).unwrap();
+    let Method::AoShaded(p) = scene.method else {
+        panic!()
+    };
+    assert_eq!((p.vao.estimator, p.vao.radius), (Estimator::Cdf, 10));
+    assert!(matches!(
+        p.raycast.shading,
+        Shading::AmbientOcclusion { direct: Some(_) }
+    ));
+    for (render, key) in [
+        ("method = \"gradient\"\nao_radius = 4", "render.ao_radius"),
+        (
+            "method = \"ao\"\nao_method = \"median\"",
+            "render.ao_method",
+        ),
+        ("method = \"ao\"\nao_radius = 0", "render.ao_radius"),
+        ("method = \"ao\"\nao_field = \"colour\"", "render.ao_field"),
+        ("method = \"ao\"\nvariance_max = 1.0", "render.variance_max"),
+        (
+            "method = \"ao\"\ndirect = false\nspecular = 0.5",
+            "render.specular",
+        ),
+    ] {
+        let err = error_of(&format!("{MINIMAL}\n[render]\n{render}\n"));
+        assert!(err.contains(key), "{render}: {err}");
+    }
+}

@@ -395,3 +395,95 @@ fn fast_estimates_against_the_exact_count_and_monte_carlo() {
         }
     }
 }
+
+#[test]
+fn ao_shading_scales_the_ambient_light_by_the_openness() {
+    use occlux::camera::{Camera, Projection};
+    use occlux::lights::{Light, Lighting};
+    use occlux::render::raycast::{cpu, AoFactors, RaycastInput, RaycastParams, Shading};
+    let volume = phantom::ct(32).unwrap();
+    let lut = preset("ct-soft-tissue").unwrap().bake(&volume);
+    let camera = Camera::look_at(
+        Vec3::new(2.5, -3.0, 1.5),
+        Vec3::ZERO,
+        Vec3::Z,
+        Projection::Perspective { fov_y: 0.7 },
+        24,
+        24,
+    )
+    .unwrap();
+    let lighting = Lighting {
+        lights: vec![Light::Ambient {
+            radiance: Vec3::new(0.5, 0.6, 0.7),
+        }],
+        background: Vec3::ZERO,
+    };
+    let grid = |v: f32| {
+        Volume::new(
+            volume.dims(),
+            volume.spacing(),
+            volume.origin(),
+            vec![v; volume.values().len()],
+        )
+        .unwrap()
+    };
+    let render = |shading, ao: Option<AoFactors>| {
+        let params = RaycastParams {
+            shading,
+            ..RaycastParams::default()
+        };
+        let input = RaycastInput {
+            volume: &volume,
+            lut: &lut,
+            camera: &camera,
+            lighting: &lighting,
+            params: &params,
+            ao,
+        };
+        cpu::render(&input, &NoProgress).unwrap()
+    };
+    let plain = render(Shading::Unshaded, None);
+    let (c, one, zero) = (grid(0.3), grid(1.0), grid(0.0));
+    let ao_only = Shading::AmbientOcclusion { direct: None };
+    let scaled = render(
+        ao_only,
+        Some(AoFactors {
+            openness: &c,
+            opacity: None,
+        }),
+    );
+    let unmodulated = render(
+        ao_only,
+        Some(AoFactors {
+            openness: &c,
+            opacity: Some(&one),
+        }),
+    );
+    let cleared = render(
+        ao_only,
+        Some(AoFactors {
+            openness: &c,
+            opacity: Some(&zero),
+        }),
+    );
+    assert!(
+        plain.rgba.iter().any(|p| p[3] > 0.5),
+        "the phantom is visible"
+    );
+    for ((p, s), (u, z)) in plain
+        .rgba
+        .iter()
+        .zip(&scaled.rgba)
+        .zip(unmodulated.rgba.iter().zip(&cleared.rgba))
+    {
+        for ch in 0..3 {
+            assert!(
+                (s[ch] - 0.3 * p[ch]).abs() <= 1e-5 * p[ch].max(1.0),
+                "{s:?} vs {p:?}"
+            );
+        }
+        assert_eq!(s[3], p[3], "openness changes no opacity");
+        assert_eq!(u, s, "a modulation factor of 1 changes nothing");
+        assert_eq!(*z, [0.0, 0.0, 0.0, 0.0], "a factor of 0 clears the volume");
+    }
+}

@@ -1,6 +1,6 @@
 //! Stages and whole exports: `occlux.stage_description` and `occlux.export`.
 
-use crate::render::{compute, render_image, scene_volume};
+use crate::render::{compute, render_scene, scene_volume};
 use crate::scene::PyScene;
 use crate::volume::PyVolume;
 use crate::{py_err, OccluxError};
@@ -77,7 +77,7 @@ pub fn export(
     let compute = compute(py, device)?;
     let scene = &scene.inner;
     let volume = scene_volume(py, scene, volume)?;
-    let image = render_image(py, scene, &volume, &compute, progress)?;
-    py.detach(|| pipeline::export(&image, scene, &volume, &out_dir, stem, &output, &vdb))
+    let rendered = render_scene(py, scene, &volume, &compute, progress)?;
+    py.detach(|| pipeline::export(&rendered, scene, &volume, &out_dir, stem, &output, &vdb))
         .map_err(py_err)
 }

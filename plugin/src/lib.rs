@@ -3,6 +3,7 @@
 //! errors become `occlux.OccluxError` with the core's message verbatim; long work (loading,
 //! rendering, writing) runs with the GIL released.
 
+mod ao;
 mod arrays;
 mod classification;
 mod errors;
@@ -35,5 +36,6 @@ fn _occlux(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(reference::reference, m)?)?;
     m.add_function(wrap_pyfunction!(export::stage_description, m)?)?;
     m.add_function(wrap_pyfunction!(export::export, m)?)?;
+    m.add_function(wrap_pyfunction!(ao::ao_volume, m)?)?;
     Ok(())
 }

@@ -8,7 +8,7 @@ use crate::{py_err, unknown_choice};
 use numpy::{PyArray2, PyArray3};
 use occlux::export::exr::{self, render_layers, Precision};
 use occlux::gpu::{Compute, DeviceChoice};
-use occlux::pipeline::{self, header_metadata};
+use occlux::pipeline::{self, header_metadata, Rendered};
 use occlux::progress::{NoProgress, Progress};
 use occlux::render::RenderImage;
 use occlux::scene::Scene;
@@ -167,13 +167,13 @@ pub(crate) fn with_progress<T: Send>(
 }
 
 /// Renders the scene's method for `volume` without the GIL, reporting to `progress`.
-pub(crate) fn render_image(
+pub(crate) fn render_scene(
     py: Python<'_>,
     scene: &Scene,
     volume: &Volume,
     compute: &Compute,
     progress: Option<Py<PyAny>>,
-) -> PyResult<RenderImage> {
+) -> PyResult<Rendered> {
     with_progress(py, progress, |report| {
         pipeline::render(scene, volume, compute, report)
     })
@@ -195,7 +195,7 @@ pub fn render(
     let compute = compute(py, device)?;
     let scene = &scene.inner;
     let volume = scene_volume(py, scene, volume)?;
-    let image = render_image(py, scene, &volume, &compute, progress)?;
+    let image = render_scene(py, scene, &volume, &compute, progress)?.image;
     let device = match compute {
         Compute::Gpu(ctx) => ctx.describe(),
         Compute::Cpu => "cpu".into(),

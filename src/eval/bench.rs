@@ -105,6 +105,7 @@ pub fn run(args: &BenchArgs, quiet: bool) -> Result<()> {
                     camera: &camera,
                     lighting: &scene.lighting,
                     params: &params,
+                    ao: None,
                 };
                 let render_once = || match &uploaded {
                     Some((ctx, uploaded)) => {

@@ -1,5 +1,6 @@
 //! Renderers. Each method has a CPU twin and a GPU twin that give the same image.
 
+pub mod ao_shaded;
 pub mod occupancy;
 pub mod raycast;
 pub mod reference;

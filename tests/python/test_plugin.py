@@ -349,3 +349,37 @@ def test_blender_python_imports_bpy_and_occlux_together() -> None:
     assert done.returncode == 0, done.stderr
     assert done.stdout.split()[0].startswith("5.0")
     assert "(4, 3, 2) (0.0, 23.0)" in done.stdout
+
+
+# ---- ambient-occlusion volumes ----
+
+
+def test_ao_volume_twins_agree_and_read_back_in_openvdb(
+    tmp_path: Path, openvdb, gpu_device: str
+) -> None:
+    scene = occlux.Scene.from_toml(scene_text())
+    volume = scene.load_volume()
+    cpu = occlux.ao_volume(scene, method="gauss", radius=3, variance=True, device="cpu")
+    gpu = occlux.ao_volume(scene, method="gauss", radius=3, variance=True, device=gpu_device)
+    assert sorted(cpu) == ["ao", "ao_variance"]
+    ao = cpu["ao"].values
+    assert ao.shape == volume.values.shape
+    assert 0.0 <= ao.min() and ao.max() <= 1.0 and ao.max() > ao.min()
+    # The twins' tolerance in tests/vao.rs (Winitzki's erf rounds differently on the GPU).
+    np.testing.assert_allclose(gpu["ao"].values, ao, atol=2e-3)
+    path = tmp_path / "ao.vdb"
+    occlux.write_vdb(path, cpu)
+    grids = {grid.name: grid for grid in openvdb.readAll(str(path))[0]}
+    read = np.zeros(cpu["ao"].dims, np.float32)
+    grids["ao"].copyToArray(read)
+    np.testing.assert_array_equal(read, ao.transpose(2, 1, 0))
+
+
+def test_ao_volume_refuses_bad_arguments_and_cancels() -> None:
+    scene = occlux.Scene.from_toml(scene_text())
+    with pytest.raises(occlux.OccluxError, match="median"):
+        occlux.ao_volume(scene, method="median", device="cpu")
+    with pytest.raises(occlux.OccluxError, match="radius"):
+        occlux.ao_volume(scene, radius=0, device="cpu")
+    with pytest.raises(occlux.OccluxError, match="cancelled"):
+        occlux.ao_volume(scene, radius=3, device="cpu", progress=lambda done, total: False)

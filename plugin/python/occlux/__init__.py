@@ -10,6 +10,8 @@ grids, OpenEXR layers and USD stages that Blender and other tools read::
     occlux.write_exr("engine.exr", result, scene)
     occlux.export(scene, "out/", stem="engine")  # out/engine.{exr,png,vdb,usda}
     truth = occlux.reference(scene, estimator="single", spp=256)  # .mean, .stderr
+    grids = occlux.ao_volume(scene, method="cdf", radius=10)  # {"ao": Volume}
+    occlux.write_vdb("engine-ao.vdb", grids)
 
 ``occlux.usd`` authors the same USD stages through usd-core's ``pxr`` API, into a file or into
 a stage of your own pipeline.
@@ -27,6 +29,7 @@ from occlux._occlux import (
     Scene,
     Volume,
     __version__,
+    ao_volume,
     export,
     reference,
     render,
@@ -45,6 +48,7 @@ __all__ = [
     "Scene",
     "Volume",
     "__version__",
+    "ao_volume",
     "export",
     "reference",
     "render",

@@ -230,3 +230,17 @@ def export(
     """What ``occlux export`` does: renders ``scene`` and writes ``STEM.exr``, ``.png``,
     ``.vdb`` (grids ``density`` and ``value``) and ``.usda`` into ``out_dir``; returns the
     paths."""
+
+def ao_volume(
+    scene: Scene,
+    method: Literal["cdf", "gauss", "gauss-exact", "penner", "exact"] = "cdf",
+    radius: int = 10,
+    field: Literal["extinction", "value"] = "extinction",
+    variance: bool = False,
+    device: _Device = "auto",
+    volume: Volume | None = None,
+    progress: Callable[[int, int], object] | None = None,
+) -> dict[str, Volume]:
+    """What ``occlux ao`` computes: the VAO volume of ``scene``'s classified volume,
+    ``{"ao": openness}`` (1 = unoccluded) plus ``"ao_variance"`` when ``variance`` is true, on
+    the volume's grid, ready for :func:`write_vdb`. ``exact`` counts voxels (slow, CPU)."""

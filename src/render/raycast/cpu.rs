@@ -54,7 +54,7 @@ pub fn march(
     let lut = input.lut;
     // A 2D table needs the gradient to classify; shading needs it only where there is matter.
     let table_2d = lut.gradient_max().is_some();
-    let shaded = input.params.shading != Shading::Unshaded;
+    let shaded = input.params.shading.gradient().is_some();
     let ambient = input.lighting.ambient();
     let ert = input.params.ert_threshold;
     let step = setup.step;
@@ -90,7 +90,10 @@ pub fn march(
         } else {
             Vec3::ZERO
         };
-        let optical = lut.lookup(value, grad.length());
+        let mut optical = lut.lookup(value, grad.length());
+        if let Some(opacity) = input.ao.and_then(|ao| ao.opacity) {
+            optical.sigma_t *= opacity.sample(p);
+        }
         if optical.sigma_t <= 0.0 && optical.emission == Vec3::ZERO {
             continue;
         }
@@ -139,12 +142,17 @@ fn in_scattered(
         .lights
         .iter()
         .filter_map(|l: &Light| incident(l, p));
+    let ambient = match input.ao {
+        Some(ao) => ambient * ao.openness.sample(p),
+        None => ambient,
+    };
     match input.params.shading {
         Shading::Unshaded => {
             let direct: Vec3 = lights.map(|(_, e)| e).sum();
             optical.albedo * (ambient + direct / (4.0 * PI))
         }
-        Shading::Gradient(g) => {
+        Shading::AmbientOcclusion { direct: None } => optical.albedo * ambient,
+        Shading::Gradient(g) | Shading::AmbientOcclusion { direct: Some(g) } => {
             let gm = grad.length();
             let w = (gm / setup.normal_threshold).min(1.0);
             let mut n = if gm > 0.0 { -grad / gm } else { Vec3::ZERO };
@@ -206,6 +214,7 @@ mod tests {
                 camera: &camera,
                 lighting: &lighting,
                 params: &params,
+                ao: None,
             };
             let setup = input.setup().unwrap();
             let built = Occupancy::build(&volume, &lut);

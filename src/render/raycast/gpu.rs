@@ -109,6 +109,14 @@ pub fn render_uploaded(
     let max_rows = (ctx.limits.max_storage_buffer_binding_size / (width as u64 * 16)).max(1) as u32;
     let band_rows = height.div_ceil(MIN_BANDS).clamp(1, max_rows);
     let mut params = params(&input, &setup, uploaded.cells);
+    // Without AO volumes, a one-voxel texture stands in for each binding.
+    let unit = Volume::new([1, 1, 1], Vec3::ONE, Vec3::ZERO, vec![1.0])?;
+    let (openness, opacity) = match input.ao {
+        Some(ao) => (ao.openness, ao.opacity.unwrap_or(&unit)),
+        None => (&unit, &unit),
+    };
+    let openness = VolumeTexture::upload(ctx, openness)?;
+    let opacity = VolumeTexture::upload(ctx, opacity)?;
     let mut row0 = 0;
     while row0 < height {
         let rows = band_rows.min(height - row0);
@@ -128,6 +136,8 @@ pub fn render_uploaded(
                 rgba.as_entire_binding(),
                 depth.as_entire_binding(),
                 uploaded.occupancy_buffer.as_entire_binding(),
+                wgpu::BindingResource::TextureView(&openness.view),
+                wgpu::BindingResource::TextureView(&opacity.view),
             ],
         )?;
         shader::dispatch(
@@ -154,10 +164,14 @@ fn params(input: &RaycastInput, setup: &RaycastSetup, cells: [usize; 3]) -> Para
     let lut = input.lut;
     let [vmin, vmax] = lut.value_range();
     let [nv, ng] = lut.size();
+    // The shader's shading codes: 0 unshaded, 1 gradient, 2 AO, 3 AO with gradient direct.
     let (shading, specular, shininess) = match input.params.shading {
         Shading::Unshaded => (0.0, 0.0, 1.0),
         Shading::Gradient(g) => (1.0, g.specular, g.shininess),
+        Shading::AmbientOcclusion { direct: None } => (2.0, 0.0, 1.0),
+        Shading::AmbientOcclusion { direct: Some(g) } => (3.0, g.specular, g.shininess),
     };
+    let modulated = input.ao.is_some_and(|ao| ao.opacity.is_some());
     let mut lights = [GpuLight::zeroed(); MAX_LIGHTS];
     let mut count = 0;
     for light in &input.lighting.lights {
@@ -202,7 +216,12 @@ fn params(input: &RaycastInput, setup: &RaycastSetup, cells: [usize; 3]) -> Para
             setup.normal_threshold,
             shading,
         ),
-        phong: Vec4::new(specular, shininess, count as f32, 0.0),
+        phong: Vec4::new(
+            specular,
+            shininess,
+            count as f32,
+            f32::from(u8::from(modulated)),
+        ),
         band: Vec4::ZERO,
         cells: Vec4::new(
             cells[0] as f32,

@@ -11,6 +11,12 @@
 //!
 //! In-scattered radiance `L_in`:
 //! - unshaded: no shadows, isotropic phase: `L_amb + sum_l E_l / (4 pi)`;
+//! - ambient occlusion (the VAO paper's Eq. 5, colour = k_i O(x) C_TF(x)): `O(x) L_amb`, with
+//!   O the openness of an AO volume sampled trilinearly, plus optionally the direct terms of
+//!   gradient shading below. The paper's opacity modulation alpha' = alpha * m(x), with
+//!   m = min(variance / variance_max, 1), is applied to the extinction, sigma_t' = m sigma_t:
+//!   the same to first order in the step, and unlike a per-step alpha it does not change with
+//!   the sample rate (opacity never depends on the step in this model);
 //! - gradient: with n the unit normal -grad/|grad| turned towards the viewer and
 //!   w = min(|grad| / threshold, 1) (w = 0 in homogeneous regions, where the normal is noise),
 //!   `L_amb + sum_l E_l (w max(0, n.l) / pi + (1 - w) / (4 pi))` for the albedo-weighted part plus
@@ -28,6 +34,28 @@ pub enum Shading {
     Unshaded,
     /// Lambert plus Blinn-Phong from the gradient normal.
     Gradient(GradientShading),
+    /// Ambient light times the openness of an AO volume ([`RaycastInput::ao`]), plus the direct
+    /// terms of gradient shading when `direct` is given.
+    AmbientOcclusion { direct: Option<GradientShading> },
+}
+
+impl Shading {
+    /// The gradient-shading parameters the shading uses for its direct light, if any.
+    pub fn gradient(&self) -> Option<GradientShading> {
+        match *self {
+            Shading::Unshaded | Shading::AmbientOcclusion { direct: None } => None,
+            Shading::Gradient(g) | Shading::AmbientOcclusion { direct: Some(g) } => Some(g),
+        }
+    }
+}
+
+/// Per-voxel factors of AO shading, on the volume's grid.
+#[derive(Clone, Copy)]
+pub struct AoFactors<'a> {
+    /// Openness in [0, 1] (1 = unoccluded), multiplying the ambient light.
+    pub openness: &'a crate::volume::Volume,
+    /// Opacity modulation factor in [0, 1] multiplying the extinction, if any.
+    pub opacity: Option<&'a crate::volume::Volume>,
 }
 
 /// Parameters of gradient shading.
@@ -91,7 +119,7 @@ impl RaycastParams {
                 format!("must be in [0, 1), got {}", self.ert_threshold),
             ));
         }
-        if let Shading::Gradient(g) = self.shading {
+        if let Some(g) = self.shading.gradient() {
             if !(0.0..=1.0).contains(&g.specular) {
                 return Err(Error::param(
                     "render.specular",
@@ -136,6 +164,8 @@ pub struct RaycastInput<'a> {
     pub camera: &'a crate::camera::Camera,
     pub lighting: &'a crate::lights::Lighting,
     pub params: &'a RaycastParams,
+    /// The AO volumes that `Shading::AmbientOcclusion` reads (None for other shadings).
+    pub ao: Option<AoFactors<'a>>,
 }
 
 /// Values derived once per render and shared by both twins.
@@ -152,9 +182,10 @@ impl RaycastInput<'_> {
         self.params.validate()?;
         self.lighting.validate()?;
         let step = self.params.resolve_step(self.volume)?;
-        let normal_threshold = match self.params.shading {
-            Shading::Unshaded => 1.0,
-            Shading::Gradient(g) => {
+        self.check_ao()?;
+        let normal_threshold = match self.params.shading.gradient() {
+            None => 1.0,
+            Some(g) => {
                 let gmax = self
                     .lut
                     .gradient_max()
@@ -167,6 +198,46 @@ impl RaycastInput<'_> {
             step,
             normal_threshold,
         })
+    }
+}
+
+impl RaycastInput<'_> {
+    /// AO shading needs its volumes on the volume's grid, with factors in [0, 1].
+    fn check_ao(&self) -> Result<()> {
+        let wants_ao = matches!(self.params.shading, Shading::AmbientOcclusion { .. });
+        match (wants_ao, &self.ao) {
+            (true, None) => Err(Error::param(
+                "render.method",
+                "ambient-occlusion shading needs an AO volume",
+            )),
+            (false, Some(_)) => Err(Error::param(
+                "render.method",
+                "an AO volume was given to a shading that does not use it",
+            )),
+            (true, Some(ao)) => {
+                for (name, grid) in [("openness", Some(ao.openness)), ("opacity", ao.opacity)] {
+                    let Some(grid) = grid else { continue };
+                    if grid.dims() != self.volume.dims() {
+                        return Err(Error::param(
+                            format!("ao.{name}"),
+                            format!(
+                                "dims {:?} differ from the volume's {:?}",
+                                grid.dims(),
+                                self.volume.dims()
+                            ),
+                        ));
+                    }
+                    if grid.values().iter().any(|v| !(0.0..=1.0).contains(v)) {
+                        return Err(Error::param(
+                            format!("ao.{name}"),
+                            "factors must lie in [0, 1]",
+                        ));
+                    }
+                }
+                Ok(())
+            }
+            (false, None) => Ok(()),
+        }
     }
 }
 
