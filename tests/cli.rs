@@ -423,3 +423,54 @@ fn ao_shaded_scenes_render_and_export_the_ao_grid() {
         assert!((got - want[0]).abs() <= 1e-3 * want[0].abs().max(1.0));
     }
 }
+
+#[test]
+fn bench_ao_times_each_radius_on_a_crop_and_refuses_bad_requests() {
+    let out = tempfile::tempdir().unwrap();
+    let json = out.path().join("bench.json");
+    let engine = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../shared/data/scivis/engine.nrrd"
+    );
+    let run = occlux(&[
+        "bench-ao",
+        "--volume",
+        engine,
+        "--slices",
+        "6",
+        "--radii",
+        "2,3",
+        "--repeats",
+        "1",
+        "--device",
+        "cpu",
+        "-o",
+        json.to_str().unwrap(),
+    ]);
+    assert!(
+        run.status.success(),
+        "{}",
+        String::from_utf8_lossy(&run.stderr)
+    );
+    let report: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    assert_eq!(report["dims"], serde_json::json!([256, 256, 6]));
+    let rows = report["rows"].as_array().unwrap();
+    assert_eq!(rows.len(), 2);
+    assert_eq!(rows[0]["ratio_to_smallest_radius"], 1.0);
+    assert!(rows.iter().all(|r| r["median_ms"].as_f64().unwrap() > 0.0));
+    for (args, key) in [
+        (vec!["--slices", "0"], "--slices"),
+        (vec!["--method", "exact"], "--method"),
+        (vec!["--radii", "0"], "radius"),
+    ] {
+        let mut all = vec!["bench-ao", "--volume", engine, "--device", "cpu", "-o"];
+        let bad = out.path().join("bad.json");
+        all.push(bad.to_str().unwrap());
+        all.extend(args);
+        let run = occlux(&all);
+        let stderr = String::from_utf8_lossy(&run.stderr);
+        assert!(!run.status.success() && stderr.contains(key), "{stderr}");
+        assert!(!bad.exists());
+    }
+}
