@@ -35,7 +35,8 @@ struct Cli {
 
 #[derive(Subcommand)]
 enum Command {
-    /// Render a scene file into OUT/ (EXR with layers beauty and depth, plus a PNG preview).
+    /// Render a scene file into OUT/ (EXR with layers beauty and depth, plus dos and occlusion
+    /// for method = "dos", and a PNG preview).
     Render {
         scene: PathBuf,
         #[arg(short, long, default_value = "occlux-out")]

@@ -7,6 +7,7 @@ use crate::export::usd::{write_usda, StageDescription};
 use crate::export::vdb::{write_vdb, VdbGrid, VdbOptions};
 use crate::gpu::Compute;
 use crate::progress::Progress;
+use crate::render::dos::{self, DosInput};
 use crate::render::raycast::{self, RaycastInput};
 use crate::render::reference::{Estimator, ReferenceImage, ReferenceParams};
 use crate::render::RenderImage;
@@ -33,6 +34,16 @@ pub fn render(
                 params,
             };
             raycast::render(compute, &input, progress)
+        }
+        Method::Dos(params) => {
+            let input = DosInput {
+                volume,
+                lut: &lut,
+                camera: &scene.camera,
+                lighting: &scene.lighting,
+                params,
+            };
+            dos::render(compute, &input, progress)
         }
     }
 }
@@ -66,7 +77,8 @@ impl Default for OutputOptions {
     }
 }
 
-/// Writes `OUT/STEM.exr` (layers `beauty` and `depth`, camera and parameters in the header) and
+/// Writes `OUT/STEM.exr` (layers `beauty` and `depth`, plus `dos` and `occlusion` for a DOS
+/// render; camera and parameters in the header) and
 /// the preview `OUT/STEM.png`, creating `out_dir` if needed. Returns the paths written.
 pub fn write_render(
     img: &RenderImage,

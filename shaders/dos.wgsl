@@ -1,0 +1,140 @@
+// Directional occlusion shading's GPU twin: one dispatch per slab, one invocation per pixel.
+// It mirrors src/render/dos/cpu.rs step for step (see src/render/dos/mod.rs for the model).
+
+//#include "common.wgsl"
+//#include "classify.wgsl"
+
+const BACKGROUND_DEPTH: f32 = 1.0e10;
+const MAX_CLIP_PLANES: u32 = 6u;
+// dos::MAX_TAU: keeps interpolation between opaque texels finite.
+const MAX_TAU: f32 = 1.0e30;
+
+struct Params {
+    // The view: camera and volume placement (raycast::gpu::ViewUniform).
+    cam_position: vec4<f32>,   // w: 1 perspective, 0 orthographic
+    cam_forward: vec4<f32>,
+    cam_right: vec4<f32>,
+    cam_up: vec4<f32>,
+    image: vec4<f32>,          // half extent x, half extent y, width, height
+    box_lo: vec4<f32>,
+    box_hi: vec4<f32>,
+    vol_origin: vec4<f32>,
+    vol_spacing: vec4<f32>,
+    vol_dims: vec4<f32>,
+    lut_range: vec4<f32>,      // value min, value max, gradient max (0: 1D table), unused
+    lut_size: vec4<f32>,       // entries along value, along gradient
+    ambient: vec4<f32>,
+    slabs: vec4<f32>,          // slice distance, depth of slice 0, cone samples, clip planes
+    clip_point: array<vec4<f32>, MAX_CLIP_PLANES>,
+    clip_normal: array<vec4<f32>, MAX_CLIP_PLANES>,
+};
+
+// What changes from slab to slab.
+struct Slab {
+    index: u32,
+    // The cone base's radius in pixels on the previous slab.
+    radius_px: f32,
+};
+
+@group(0) @binding(0) var<uniform> params: Params;
+@group(0) @binding(1) var volume: texture_3d<f32>;
+@group(0) @binding(2) var volume_sampler: sampler;
+@group(0) @binding(3) var<storage, read> lut: array<vec4<f32>>;
+// Unit-disc offset (xy) and path length through the previous slab (z) per cone sample.
+@group(0) @binding(4) var<storage, read> samples: array<vec4<f32>>;
+// Occlusion buffers (V, tau): the previous slab's, read; this slab's, written.
+@group(0) @binding(5) var<storage, read> previous: array<vec2<f32>>;
+@group(0) @binding(6) var<storage, read_write> next: array<vec2<f32>>;
+// Eye buffer: radiance and transmittance; depth and the occlusion factor there.
+@group(0) @binding(7) var<storage, read_write> eye: array<vec4<f32>>;
+@group(0) @binding(8) var<storage, read_write> eye_depth: array<vec2<f32>>;
+@group(0) @binding(9) var<uniform> slab: Slab;
+
+// Bilinear read of the previous buffer at pixel coordinates, clamped to the edge pixels.
+fn bilinear(at: vec2<f32>) -> vec2<f32> {
+    let size = params.image.zw;
+    let x = clamp(at, vec2<f32>(0.0), size - 1.0);
+    let i0 = floor(x);
+    let i1 = min(i0 + 1.0, size - 1.0);
+    let f = x - i0;
+    let w = u32(size.x);
+    let a = previous[u32(i0.x) + w * u32(i0.y)];
+    let b = previous[u32(i1.x) + w * u32(i0.y)];
+    let c = previous[u32(i0.x) + w * u32(i1.y)];
+    let d = previous[u32(i1.x) + w * u32(i1.y)];
+    let top = a + (b - a) * f.x;
+    let bottom = c + (d - c) * f.x;
+    return top + (bottom - top) * f.y;
+}
+
+fn visibility(pixel: vec2<u32>) -> f32 {
+    let count = u32(params.slabs.z);
+    let centre = vec2<f32>(pixel);
+    var sum = 0.0;
+    for (var s = 0u; s < count; s = s + 1u) {
+        let q = samples[s];
+        let b = bilinear(centre + vec2<f32>(q.x, -q.y) * slab.radius_px);
+        sum = sum + b.x * exp(-b.y * q.z);
+    }
+    return sum / f32(count);
+}
+
+// Optical properties at p with clipped material removed (dos::material).
+fn material(p: vec3<f32>) -> Optical {
+    for (var i = 0u; i < u32(params.slabs.w); i = i + 1u) {
+        if (dot(p - params.clip_point[i].xyz, params.clip_normal[i].xyz) > 0.0) {
+            return Optical(0.0, vec3<f32>(0.0), vec3<f32>(0.0));
+        }
+    }
+    let c = (p - params.vol_origin.xyz) / params.vol_spacing.xyz;
+    var g = 0.0;
+    if (params.lut_range.z > 0.0) {
+        g = length(volume_gradient(volume, volume_sampler, c, params.vol_dims.xyz, params.vol_spacing.xyz));
+    }
+    let v = sample_volume(volume, volume_sampler, c, params.vol_dims.xyz);
+    return lut_lookup(v, g, params.lut_range, params.lut_size);
+}
+
+@compute @workgroup_size(8, 8, 1)
+fn main(@builtin(global_invocation_id) id: vec3<u32>) {
+    let width = u32(params.image.z);
+    if (id.x >= width || id.y >= u32(params.image.w)) {
+        return;
+    }
+    let index = id.x + width * id.y;
+    var v = 1.0;
+    if (slab.index > 0u) {
+        v = visibility(id.xy);
+    }
+    let ray = camera_ray(
+        id.xy,
+        params.cam_position,
+        params.cam_forward.xyz,
+        params.cam_right.xyz,
+        params.cam_up.xyz,
+        params.image,
+    );
+    let span = box_span(ray.origin, ray.dir, params.box_lo.xyz, params.box_hi.xyz);
+    let rate = dot(ray.dir, params.cam_forward.xyz);
+    let d = params.slabs.x;
+    let z0 = params.slabs.y + f32(slab.index) * d;
+    let ta = max(z0 / rate, span.x);
+    let tb = min((z0 + d) / rate, span.y);
+    var tau = 0.0;
+    if (tb > ta) {
+        let dt = tb - ta;
+        let o = material(ray.origin + (0.5 * (ta + tb)) * ray.dir);
+        if (o.sigma_t > 0.0 || any(o.emission != vec3<f32>(0.0))) {
+            var e = eye[index];
+            let alpha = 1.0 - exp(-o.sigma_t * dt);
+            let light = alpha * o.albedo * params.ambient.xyz * v + emitted(o, alpha, dt);
+            let transmittance = e.w * (1.0 - alpha);
+            if (e.w > 0.5 && transmittance <= 0.5) {
+                eye_depth[index] = vec2<f32>(ta + log(2.0 * e.w) / o.sigma_t, v);
+            }
+            eye[index] = vec4<f32>(e.xyz + e.w * light, transmittance);
+            tau = min(o.sigma_t * dt * rate / d, MAX_TAU);
+        }
+    }
+    next[index] = vec2<f32>(v, tau);
+}
