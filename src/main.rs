@@ -3,7 +3,7 @@
 use clap::{Parser, Subcommand};
 use indicatif::{ProgressBar, ProgressStyle};
 use occlux::ao::reference::{ao_reference, AoReferenceParams, AoVariant};
-use occlux::eval::bench;
+use occlux::eval::{bench, dos_accuracy};
 use occlux::export::exr::Precision;
 use occlux::export::vdb::{write_vdb, Compression, VdbGrid, VdbOptions};
 use occlux::gpu::{Compute, DeviceChoice};
@@ -85,6 +85,9 @@ enum Command {
     },
     /// Time unshaded and gradient DVR on CPU and GPU (median after warm-up); table and JSON.
     Bench(bench::BenchArgs),
+    /// Directional occlusion shading against the cone-phase and ambient Monte Carlo references
+    /// (relative RMSE over the volume's pixels) for scenes x theta x n; table and JSON.
+    DosAccuracy(dos_accuracy::AccuracyArgs),
     /// Monte Carlo reference of the scene (CPU): OUT/STEM-ESTIMATOR.exr (float32 layers beauty
     /// = per-pixel mean, stderr = its standard error) and a PNG preview.
     Reference {
@@ -238,6 +241,7 @@ fn run(cli: Cli) -> occlux::Result<()> {
             grid,
         } => info(&file, raw_dims, raw_type, raw_spacing, grid),
         Command::Bench(args) => bench::run(&args, quiet),
+        Command::DosAccuracy(args) => dos_accuracy::run(&args, quiet),
         Command::Reference {
             scene,
             estimator,

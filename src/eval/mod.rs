@@ -1,3 +1,4 @@
 //! Evaluation: benchmarks and error metrics.
 pub mod bench;
 pub mod cycles;
+pub mod dos_accuracy;
