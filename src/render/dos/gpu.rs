@@ -3,9 +3,9 @@
 
 use super::{finish, DosInput, DosSetup, MAX_CLIP_PLANES};
 use crate::error::{Error, Result};
-use crate::gpu::{buffer, shader, GpuContext, VolumeTexture};
+use crate::gpu::{buffer, shader, GpuContext};
 use crate::progress::Progress;
-use crate::render::raycast::gpu::{lut_uniform, ViewUniform};
+use crate::render::raycast::gpu::{lut_uniform, GpuVolume, ViewUniform};
 use crate::render::{RenderImage, BACKGROUND_DEPTH};
 use bytemuck::{Pod, Zeroable};
 use glam::Vec4;
@@ -39,12 +39,23 @@ struct Slab {
 
 /// Uploads the inputs and renders.
 pub fn render(ctx: &GpuContext, input: &DosInput, progress: &dyn Progress) -> Result<RenderImage> {
+    let uploaded = GpuVolume::upload(ctx, input.volume, input.lut)?;
+    render_uploaded(ctx, &uploaded, input, progress)
+}
+
+/// Renders with an already uploaded volume and table; they must be `input.volume` and
+/// `input.lut`.
+pub fn render_uploaded(
+    ctx: &GpuContext,
+    uploaded: &GpuVolume,
+    input: &DosInput,
+    progress: &dyn Progress,
+) -> Result<RenderImage> {
     let setup = input.setup()?;
     let cam = input.camera;
     let pixels = cam.width as usize * cam.height as usize;
     let pipeline = shader::compute_pipeline(ctx, SHADER, "main")?;
-    let texture = VolumeTexture::upload(ctx, input.volume)?;
-    let lut = buffer::storage_buffer(ctx, "classification table", input.lut.data())?;
+    let texture = uploaded.texture();
     let samples: Vec<Vec4> = setup
         .offsets
         .iter()
@@ -70,7 +81,7 @@ pub fn render(ctx: &GpuContext, input: &DosInput, progress: &dyn Progress) -> Re
                 uniform.as_entire_binding(),
                 wgpu::BindingResource::TextureView(&texture.view),
                 wgpu::BindingResource::Sampler(&texture.sampler),
-                lut.as_entire_binding(),
+                uploaded.lut_buffer().as_entire_binding(),
                 samples.as_entire_binding(),
                 occlusion[g].as_entire_binding(),
                 occlusion[1 - g].as_entire_binding(),

@@ -119,6 +119,17 @@ impl<'a> GpuVolume<'a> {
     }
 }
 
+impl GpuVolume<'_> {
+    /// The volume as a 3D texture with its linear sampler.
+    pub(crate) fn texture(&self) -> &VolumeTexture {
+        &self.texture
+    }
+    /// The classification table's storage buffer.
+    pub(crate) fn lut_buffer(&self) -> &wgpu::Buffer {
+        &self.lut_buffer
+    }
+}
+
 /// Uploads the inputs and renders.
 pub fn render(
     ctx: &GpuContext,
