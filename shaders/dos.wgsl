@@ -25,6 +25,7 @@ struct Params {
     lut_size: vec4<f32>,       // entries along value, along gradient
     ambient: vec4<f32>,
     slabs: vec4<f32>,          // slice distance, depth of slice 0, cone samples, clip planes
+    march: vec4<f32>,          // x: 1 lock-step rays (t = depth), 0 view-aligned slices
     clip_point: array<vec4<f32>, MAX_CLIP_PLANES>,
     clip_normal: array<vec4<f32>, MAX_CLIP_PLANES>,
 };
@@ -115,7 +116,7 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
         params.image,
     );
     let span = box_span(ray.origin, ray.dir, params.box_lo.xyz, params.box_hi.xyz);
-    let rate = dot(ray.dir, params.cam_forward.xyz);
+    let rate = select(dot(ray.dir, params.cam_forward.xyz), 1.0, params.march.x == 1.0);
     let d = params.slabs.x;
     let z0 = params.slabs.y + f32(slab.index) * d;
     let ta = max(z0 / rate, span.x);

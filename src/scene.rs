@@ -35,6 +35,7 @@
 //! # grid = 5                                   # n x n samples on the cone base
 //! # slice_distance = 0.01                      # world units; default: the smallest voxel spacing
 //! # distance = "exact"                         # or "approximate"
+//! # formulation = "slices"                     # or "rays" (lock-step ray marching)
 //! # clip_planes = [{ point = [0, 0, 0], normal = [1, 0, 0] }]   # removes x > 0
 //! ```
 
@@ -45,7 +46,7 @@ use crate::classify::{
 };
 use crate::error::{Error, Result};
 use crate::lights::{Light, Lighting};
-use crate::render::dos::{ClipPlane, ConeDistance, DosParams};
+use crate::render::dos::{ClipPlane, ConeDistance, DosParams, Formulation};
 use crate::render::raycast::{GradientShading, RaycastParams, Shading};
 use crate::volume::{self, phantom, LoadOptions, NonFinite, RawSpec, ScalarType, Volume};
 use glam::Vec3;
@@ -300,6 +301,7 @@ struct RenderSection {
     grid: Option<u32>,
     slice_distance: Option<f32>,
     distance: Option<String>,
+    formulation: Option<String>,
     clip_planes: Option<Vec<ClipPlaneSection>>,
 }
 
@@ -323,6 +325,7 @@ impl Default for RenderSection {
             grid: None,
             slice_distance: None,
             distance: None,
+            formulation: None,
             clip_planes: None,
         }
     }
@@ -558,6 +561,7 @@ impl RenderSection {
             ("grid", self.grid.is_some()),
             ("slice_distance", self.slice_distance.is_some()),
             ("distance", self.distance.is_some()),
+            ("formulation", self.formulation.is_some()),
             ("clip_planes", self.clip_planes.is_some()),
         ];
         if let Some((key, _)) = dos_keys.iter().find(|(_, given)| *given) {
@@ -629,6 +633,16 @@ impl RenderSection {
                 ))
             }
         };
+        let formulation = match self.formulation.as_deref() {
+            None | Some("slices") => Formulation::Slices,
+            Some("rays") => Formulation::Rays,
+            Some(other) => {
+                return Err(Error::param(
+                    "render.formulation",
+                    format!("must be \"slices\" or \"rays\", got '{other}'"),
+                ))
+            }
+        };
         let mut clip_planes = Vec::new();
         for (i, plane) in self.clip_planes.unwrap_or_default().into_iter().enumerate() {
             let normal = Vec3::from(plane.normal);
@@ -649,6 +663,7 @@ impl RenderSection {
             grid: self.grid.unwrap_or(d.grid),
             slice_distance: self.slice_distance,
             distance,
+            formulation,
             clip_planes,
         };
         params.validate()?;

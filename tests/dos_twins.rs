@@ -19,7 +19,7 @@ use occlux::classify::{presets, Classification};
 use occlux::gpu::{shared_context, GpuContext};
 use occlux::lights::{Light, Lighting};
 use occlux::progress::NoProgress;
-use occlux::render::dos::{cpu, gpu, ClipPlane, ConeDistance, DosInput, DosParams};
+use occlux::render::dos::{cpu, gpu, ClipPlane, ConeDistance, DosInput, DosParams, Formulation};
 use occlux::render::{RenderImage, BACKGROUND_DEPTH};
 use occlux::volume::{phantom, Volume};
 
@@ -148,6 +148,7 @@ fn two_dimensional_tf_clip_planes_and_wide_cones_agree() {
         grid: 13,
         slice_distance: Some(0.05),
         distance: ConeDistance::Exact,
+        formulation: Formulation::Slices,
         clip_planes: vec![
             ClipPlane {
                 point: Vec3::new(0.0, -0.2, 0.0),
@@ -189,4 +190,10 @@ fn orthographic_and_inside_cameras_agree() {
     )
     .unwrap();
     compare(&volume, &classification, &inside, &params);
+    let rays = DosParams {
+        formulation: Formulation::Rays,
+        ..params
+    };
+    compare(&volume, &classification, &perspective(32), &rays);
+    compare(&volume, &classification, &inside, &rays);
 }

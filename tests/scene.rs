@@ -157,10 +157,10 @@ fn file_errors_name_the_file() {
 
 #[test]
 fn dos_method_takes_its_parameters() {
-    use occlux::render::dos::{ClipPlane, ConeDistance, DosParams};
+    use occlux::render::dos::{ClipPlane, ConeDistance, DosParams, Formulation};
     let text = format!(
         "{MINIMAL}[render]\nmethod = \"dos\"\ntheta_deg = 30\ngrid = 13\nslice_distance = 0.01\n\
-         distance = \"approximate\"\nclip_planes = [{{ point = [0, 0, 1], normal = [0, 0, 2] }}]\n"
+         distance = \"approximate\"\nformulation = \"rays\"\nclip_planes = [{{ point = [0, 0, 1], normal = [0, 0, 2] }}]\n"
     );
     let scene = parse(&text).unwrap();
     assert_eq!(
@@ -170,6 +170,7 @@ fn dos_method_takes_its_parameters() {
             grid: 13,
             slice_distance: Some(0.01),
             distance: ConeDistance::Approximate,
+            formulation: Formulation::Rays,
             clip_planes: vec![ClipPlane {
                 point: Vec3::Z,
                 normal: Vec3::Z,
@@ -191,6 +192,10 @@ fn dos_errors_name_the_key() {
         ),
         ("method = \"dos\"\ndistance = \"near\"", "render.distance"),
         ("method = \"dos\"\nstep = 0.1", "render.step"),
+        (
+            "method = \"dos\"\nformulation = \"cones\"",
+            "render.formulation",
+        ),
         (
             "method = \"dos\"\nclip_planes = [{ point = [0, 0, 0], normal = [0, 0, 0] }]",
             "render.clip_planes[0].normal",

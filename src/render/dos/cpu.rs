@@ -1,6 +1,6 @@
 //! CPU twin of DOS: slabs in order, rayon over image rows within a slab.
 
-use super::{finish, material, DosInput, DosSetup, MAX_TAU};
+use super::{finish, material, DosInput, DosSetup, Formulation, MAX_TAU};
 use crate::camera::intersect_box;
 use crate::error::{Error, Result};
 use crate::progress::Progress;
@@ -9,7 +9,8 @@ use crate::render::{RenderImage, BACKGROUND_DEPTH};
 use glam::{Vec2, Vec3};
 use rayon::prelude::*;
 
-/// One pixel's ray, clipped to the box: t = depth / `depth_rate`.
+/// One pixel's ray, clipped to the box: t = depth / `depth_rate` (slices), or t itself when
+/// marching in lock step (`depth_rate` = 1).
 #[derive(Clone, Copy)]
 struct PixelRay {
     origin: Vec3,
@@ -36,13 +37,18 @@ pub fn render(input: &DosInput, progress: &dyn Progress) -> Result<RenderImage> 
     let cam = input.camera;
     let (width, height) = (cam.width as usize, cam.height as usize);
     let (lo, hi) = input.volume.bounds();
+    let lock_step = input.params.formulation == Formulation::Rays;
     let rays: Vec<PixelRay> = (0..width * height)
         .map(|index| {
             let ray = cam.ray((index % width) as u32, (index / width) as u32);
             PixelRay {
                 origin: ray.origin,
                 dir: ray.dir,
-                depth_rate: ray.dir.dot(cam.forward),
+                depth_rate: if lock_step {
+                    1.0
+                } else {
+                    ray.dir.dot(cam.forward)
+                },
                 span: intersect_box(&ray, lo, hi).unwrap_or((0.0, 0.0)),
             }
         })

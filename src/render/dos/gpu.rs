@@ -1,7 +1,7 @@
 //! GPU twin of DOS: shaders/dos.wgsl, one dispatch per slab over the whole image, with the
 //! occlusion buffers ping-ponged between two storage buffers.
 
-use super::{finish, DosInput, DosSetup, MAX_CLIP_PLANES};
+use super::{finish, DosInput, DosSetup, Formulation, MAX_CLIP_PLANES};
 use crate::error::{Error, Result};
 use crate::gpu::{buffer, shader, GpuContext};
 use crate::progress::Progress;
@@ -24,6 +24,7 @@ struct Params {
     lut_size: Vec4,
     ambient: Vec4,
     slabs: Vec4,
+    march: Vec4,
     clip_point: [Vec4; MAX_CLIP_PLANES],
     clip_normal: [Vec4; MAX_CLIP_PLANES],
 }
@@ -139,6 +140,12 @@ fn params(input: &DosInput, setup: &DosSetup) -> Params {
             setup.first_depth,
             setup.offsets.len() as f32,
             input.params.clip_planes.len() as f32,
+        ),
+        march: Vec4::new(
+            f32::from(u8::from(input.params.formulation == Formulation::Rays)),
+            0.0,
+            0.0,
+            0.0,
         ),
         clip_point,
         clip_normal,

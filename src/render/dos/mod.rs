@@ -11,6 +11,12 @@
 //! the slab is sampled at the clipped segment's midpoint (one material sample per pixel and
 //! slab, classified as the ray caster does, with clipping planes removing material).
 //!
+//! With `Formulation::Rays` (the ray-casting formulation) slab k is instead the k-th step of
+//! length d along every ray, marched in lock step from the volume's nearest distance to the
+//! camera: spherical shells around a perspective camera, the same planes for an orthographic
+//! one (so there both formulations give the same image). The cone base's pixel radius then
+//! uses the previous step's mid-distance in place of its depth.
+//!
 //! Two image-sized buffers run through the slabs front to back:
 //! - the occlusion buffer holds, per pixel, `V_k`, the fraction of the cone's light that
 //!   reaches slab k, and `tau_k = sigma_t * f`, the slab's extinction times the fraction `f` of
@@ -60,6 +66,16 @@ pub enum ConeDistance {
     Approximate,
 }
 
+/// How the volume is cut into slabs.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Formulation {
+    /// View-aligned planes d apart in depth (the paper's slice-based algorithm).
+    #[default]
+    Slices,
+    /// Lock-step ray marching: steps of length d along every ray.
+    Rays,
+}
+
 /// A clipping plane: material on the side the normal points to is removed, for the eye and
 /// for the occlusion (clipped material casts no occlusion).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -87,6 +103,7 @@ pub struct DosParams {
     /// Distance between slices in world units; None: the smallest voxel spacing.
     pub slice_distance: Option<f32>,
     pub distance: ConeDistance,
+    pub formulation: Formulation,
     /// At most [`MAX_CLIP_PLANES`].
     pub clip_planes: Vec<ClipPlane>,
 }
@@ -98,6 +115,7 @@ impl Default for DosParams {
             grid: 5,
             slice_distance: None,
             distance: ConeDistance::Exact,
+            formulation: Formulation::Slices,
             clip_planes: Vec::new(),
         }
     }
@@ -182,7 +200,8 @@ pub struct DosInput<'a> {
 pub struct DosSetup {
     /// d, world units.
     pub slice_distance: f32,
-    /// Depth (along the camera's forward axis) of slice 0.
+    /// Depth (along the camera's forward axis) of slice 0; for `Formulation::Rays`, its
+    /// distance along the rays.
     pub first_depth: f32,
     /// Number of slabs (0 when the volume lies behind the camera).
     pub slabs: u32,
@@ -220,17 +239,24 @@ impl DosInput<'_> {
             .unwrap_or(self.volume.spacing().min_element());
         let cam = self.camera;
         let (lo, hi) = self.volume.bounds();
-        let depths = (0..8).map(|c| {
-            let corner = Vec3::new(
+        let corners = (0..8).map(|c| {
+            Vec3::new(
                 if c & 1 == 0 { lo.x } else { hi.x },
                 if c & 2 == 0 { lo.y } else { hi.y },
                 if c & 4 == 0 { lo.z } else { hi.z },
-            );
-            (corner - cam.position).dot(cam.forward)
+            ) - cam.position
         });
-        let (near, far) = depths.fold((f32::INFINITY, f32::NEG_INFINITY), |(a, b), z| {
-            (a.min(z), b.max(z))
-        });
+        let (near, far) = if self.params.formulation == Formulation::Rays && cam.is_perspective() {
+            // Distances along rays from the eye: the box's nearest point, its farthest corner.
+            let nearest = (cam.position.clamp(lo, hi) - cam.position).length();
+            (nearest, corners.map(Vec3::length).fold(0.0, f32::max))
+        } else {
+            corners
+                .map(|c| c.dot(cam.forward))
+                .fold((f32::INFINITY, f32::NEG_INFINITY), |(a, b), z| {
+                    (a.min(z), b.max(z))
+                })
+        };
         let first_depth = near.max(0.0);
         let count = ((far - first_depth) / d).ceil().max(0.0);
         if count > MAX_SLICES {
