@@ -25,7 +25,7 @@ struct Params {
     lut_size: vec4<f32>,       // entries along value, along gradient
     ambient: vec4<f32>,
     slabs: vec4<f32>,          // slice distance, depth of slice 0, cone samples, clip planes
-    march: vec4<f32>,          // x: 1 lock-step rays (t = depth), 0 view-aligned slices
+    march: vec4<f32>,          // x: 1 lock-step rays (t = depth), 0 view-aligned slices; y: planes
     clip_point: array<vec4<f32>, MAX_CLIP_PLANES>,
     clip_normal: array<vec4<f32>, MAX_CLIP_PLANES>,
 };
@@ -41,41 +41,46 @@ struct Slab {
 @group(0) @binding(1) var volume: texture_3d<f32>;
 @group(0) @binding(2) var volume_sampler: sampler;
 @group(0) @binding(3) var<storage, read> lut: array<vec4<f32>>;
-// Unit-disc offset (xy) and path length through the previous slab (z) per cone sample.
+// Unit-disc offset (xy) and ring, the occlusion buffer's plane (z), per cone sample.
 @group(0) @binding(4) var<storage, read> samples: array<vec4<f32>>;
-// Occlusion buffers (V, tau): the previous slab's, read; this slab's, written.
-@group(0) @binding(5) var<storage, read> previous: array<vec2<f32>>;
-@group(0) @binding(6) var<storage, read_write> next: array<vec2<f32>>;
+// Occlusion buffers W, one plane per ring, laid out (row, plane, column): the previous slab's,
+// read; this slab's, written.
+@group(0) @binding(5) var<storage, read> previous: array<f32>;
+@group(0) @binding(6) var<storage, read_write> next: array<f32>;
 // Eye buffer: radiance and transmittance; depth and the occlusion factor there.
 @group(0) @binding(7) var<storage, read_write> eye: array<vec4<f32>>;
 @group(0) @binding(8) var<storage, read_write> eye_depth: array<vec2<f32>>;
 @group(0) @binding(9) var<uniform> slab: Slab;
+// Path length through the previous slab per plane.
+@group(0) @binding(10) var<storage, read> ring_lengths: array<f32>;
 
-// Bilinear read of the previous buffer at pixel coordinates, clamped to the edge pixels.
-fn bilinear(at: vec2<f32>) -> vec2<f32> {
-    let size = params.image.zw;
-    let x = clamp(at, vec2<f32>(0.0), size - 1.0);
-    let i0 = floor(x);
-    let i1 = min(i0 + 1.0, size - 1.0);
-    let f = x - i0;
-    let w = u32(size.x);
-    let a = previous[u32(i0.x) + w * u32(i0.y)];
-    let b = previous[u32(i1.x) + w * u32(i0.y)];
-    let c = previous[u32(i0.x) + w * u32(i1.y)];
-    let d = previous[u32(i1.x) + w * u32(i1.y)];
-    let top = a + (b - a) * f.x;
-    let bottom = c + (d - c) * f.x;
-    return top + (bottom - top) * f.y;
+// Index of plane p's texel (i, j) in the occlusion buffers.
+fn texel(p: u32, i: i32, j: i32) -> u32 {
+    return (u32(j) * u32(params.march.y) + p) * u32(params.image.z) + u32(i);
 }
 
+// V_k at a pixel: the average over the cone's samples of the previous buffer read bilinearly,
+// with indices clamped to the image (dos::cpu::cone_average, blended rows first).
 fn visibility(pixel: vec2<u32>) -> f32 {
     let count = u32(params.slabs.z);
-    let centre = vec2<f32>(pixel);
+    let last = vec2<i32>(params.image.zw) - 1;
     var sum = 0.0;
     for (var s = 0u; s < count; s = s + 1u) {
         let q = samples[s];
-        let b = bilinear(centre + vec2<f32>(q.x, -q.y) * slab.radius_px);
-        sum = sum + b.x * exp(-b.y * q.z);
+        let o = vec2<f32>(q.x, -q.y) * slab.radius_px;
+        let whole = floor(o);
+        let f = o - whole;
+        let at = vec2<i32>(pixel) + vec2<i32>(whole);
+        let i0 = clamp(at.x, 0, last.x);
+        let i1 = clamp(at.x + 1, 0, last.x);
+        let j0 = clamp(at.y, 0, last.y);
+        let j1 = clamp(at.y + 1, 0, last.y);
+        let p = u32(q.z);
+        let t0 = previous[texel(p, i0, j0)];
+        let t1 = previous[texel(p, i1, j0)];
+        let m0 = t0 + (previous[texel(p, i0, j1)] - t0) * f.y;
+        let m1 = t1 + (previous[texel(p, i1, j1)] - t1) * f.y;
+        sum = sum + (m0 + (m1 - m0) * f.x);
     }
     return sum / f32(count);
 }
@@ -137,5 +142,7 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
             tau = min(o.sigma_t * dt * rate / d, MAX_TAU);
         }
     }
-    next[index] = vec2<f32>(v, tau);
+    for (var p = 0u; p < u32(params.march.y); p = p + 1u) {
+        next[texel(p, i32(id.x), i32(id.y))] = v * exp(-tau * ring_lengths[p]);
+    }
 }

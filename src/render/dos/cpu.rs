@@ -62,27 +62,36 @@ pub fn render(input: &DosInput, progress: &dyn Progress) -> Result<RenderImage> 
         };
         width * height
     ];
-    // The occlusion buffer of the previous slab, (V, tau) per pixel, and the one being written.
-    let mut previous = vec![[1.0f32, 0.0]; width * height];
+    // The occlusion buffers, previous slab's and this one's: per image row, one row of W per
+    // plane (so each row of the image owns a contiguous chunk).
+    let planes = setup.planes();
+    let mut previous = vec![0.0f32; planes * width * height];
     let mut next = previous.clone();
     for k in 0..setup.slabs {
         if progress.cancelled() {
             return Err(Error::Cancelled);
         }
-        let radius_px = setup.base_radius_px(cam, k);
-        next.par_chunks_mut(width)
+        let taps = taps(&setup, setup.base_radius_px(cam, k));
+        next.par_chunks_mut(planes * width)
             .zip(eye.par_chunks_mut(width))
             .enumerate()
-            .for_each(|(j, (next_row, eye_row))| {
-                for (i, (out, e)) in next_row.iter_mut().zip(eye_row).enumerate() {
-                    let index = i + width * j;
-                    let v = if k == 0 {
-                        1.0
-                    } else {
-                        visibility(&setup, &previous, [width, height], [i, j], radius_px)
-                    };
-                    let tau = slab(input, &setup, &rays[index], k, v, e);
-                    *out = [v, tau];
+            .for_each(|(j, (next_rows, eye_row))| {
+                let mut visibility = vec![1.0f32; width];
+                if k > 0 {
+                    cone_average(
+                        &previous,
+                        [width, height],
+                        planes,
+                        j,
+                        &taps,
+                        &mut visibility,
+                    );
+                }
+                for (i, (e, v)) in eye_row.iter_mut().zip(visibility).enumerate() {
+                    let tau = slab(input, &setup, &rays[i + width * j], k, v, e);
+                    for (plane, length) in setup.ring_lengths.iter().enumerate() {
+                        next_rows[plane * width + i] = v * (-tau * length).exp();
+                    }
                 }
             });
         std::mem::swap(&mut previous, &mut next);
@@ -96,46 +105,82 @@ pub fn render(input: &DosInput, progress: &dyn Progress) -> Result<RenderImage> 
     Ok(finish(cam, input.lighting.background, &radiance, &depth))
 }
 
-/// V_k at pixel (i, j): the cone-base average of the previous buffer, each sample attenuated
-/// along its path through the previous slab.
-#[inline]
-fn visibility(
-    setup: &DosSetup,
-    previous: &[[f32; 2]],
-    size: [usize; 2],
-    pixel: [usize; 2],
-    radius_px: f32,
-) -> f32 {
-    let centre = Vec2::new(pixel[0] as f32, pixel[1] as f32);
-    let mut sum = 0.0;
-    for (&q, &length) in setup.offsets.iter().zip(&setup.path_lengths) {
-        // Image rows run down while the camera's up runs up.
-        let at = centre + Vec2::new(q.x, -q.y) * radius_px;
-        let [v, tau] = bilinear(previous, size, at);
-        sum += v * (-tau * length).exp();
-    }
-    sum / setup.offsets.len() as f32
+/// One cone sample's read of the previous buffer, the same for every pixel of a slab: the
+/// whole-pixel offset, the bilinear fractions and the plane.
+struct Tap {
+    di: i64,
+    dj: i64,
+    fx: f32,
+    fy: f32,
+    plane: usize,
 }
 
-/// Bilinear read of an image-sized buffer at pixel coordinates (pixel centres at integers),
-/// clamped to the edge pixels.
-#[inline]
-fn bilinear(buffer: &[[f32; 2]], size: [usize; 2], at: Vec2) -> [f32; 2] {
-    let axis = |x: f32, n: usize| {
-        let x = x.clamp(0.0, (n - 1) as f32);
-        let i0 = x.floor() as usize;
-        (i0, (i0 + 1).min(n - 1), x - i0 as f32)
+fn taps(setup: &DosSetup, radius_px: f32) -> Vec<Tap> {
+    setup
+        .offsets
+        .iter()
+        .zip(&setup.sample_ring)
+        .map(|(q, &ring)| {
+            // Image rows run down while the camera's up runs up.
+            let o = Vec2::new(q.x, -q.y) * radius_px;
+            let whole = o.floor();
+            let f = o - whole;
+            Tap {
+                di: whole.x as i64,
+                dj: whole.y as i64,
+                fx: f.x,
+                fy: f.y,
+                plane: ring as usize,
+            }
+        })
+        .collect()
+}
+
+/// V_k along image row j: the average over the cone's taps of the previous buffer read
+/// bilinearly, with indices clamped to the image (which clamps the read to the edge pixels).
+/// Row-wise, so that the interior of each tap's pass runs over contiguous memory.
+fn cone_average(
+    previous: &[f32],
+    [width, height]: [usize; 2],
+    planes: usize,
+    j: usize,
+    taps: &[Tap],
+    out: &mut [f32],
+) {
+    let clamp = |x: i64, n: usize| x.clamp(0, n as i64 - 1) as usize;
+    let row = |plane: usize, y: usize| {
+        let at = (y * planes + plane) * width;
+        &previous[at..at + width]
     };
-    let (i0, i1, fx) = axis(at.x, size[0]);
-    let (j0, j1, fy) = axis(at.y, size[1]);
-    let texel = |i: usize, j: usize| buffer[i + size[0] * j];
-    let lerp =
-        |a: [f32; 2], b: [f32; 2], f: f32| [a[0] + (b[0] - a[0]) * f, a[1] + (b[1] - a[1]) * f];
-    lerp(
-        lerp(texel(i0, j0), texel(i1, j0), fx),
-        lerp(texel(i0, j1), texel(i1, j1), fx),
-        fy,
-    )
+    let mut sum = vec![0.0f32; width];
+    let mut mixed = vec![0.0f32; width];
+    for tap in taps {
+        let top = row(tap.plane, clamp(j as i64 + tap.dj, height));
+        let bottom = row(tap.plane, clamp(j as i64 + tap.dj + 1, height));
+        for ((m, t), b) in mixed.iter_mut().zip(top).zip(bottom) {
+            *m = t + (b - t) * tap.fy;
+        }
+        // Columns i whose reads i + di and i + di + 1 both lie inside the row.
+        let first = (-tap.di).clamp(0, width as i64) as usize;
+        let end = (width as i64 - 1 - tap.di).clamp(first as i64, width as i64) as usize;
+        for i in (0..first).chain(end..width) {
+            let a = mixed[clamp(i as i64 + tap.di, width)];
+            let b = mixed[clamp(i as i64 + tap.di + 1, width)];
+            sum[i] += a + (b - a) * tap.fx;
+        }
+        if end > first {
+            let start = (first as i64 + tap.di) as usize;
+            let a = &mixed[start..start + end - first];
+            let b = &mixed[start + 1..start + 1 + end - first];
+            for ((s, a), b) in sum[first..end].iter_mut().zip(a).zip(b) {
+                *s += a + (b - a) * tap.fx;
+            }
+        }
+    }
+    let count = taps.len() as f32;
+    for (o, s) in out.iter_mut().zip(sum) {
+        *o = s / count;
+    }
 }
 
 /// Composites slab k of one pixel into its eye buffer, lit with visibility `v`; returns the

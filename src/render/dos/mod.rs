@@ -18,15 +18,18 @@
 //! uses the previous step's mid-distance in place of its depth.
 //!
 //! Two image-sized buffers run through the slabs front to back:
-//! - the occlusion buffer holds, per pixel, `V_k`, the fraction of the cone's light that
-//!   reaches slab k, and `tau_k = sigma_t * f`, the slab's extinction times the fraction `f` of
-//!   its depth that lies inside the box. `V_0 = 1`; then (the paper's Algorithm 2)
-//!   `V_k(x) = 1/n^2 sum_s V_{k-1}(x + q_s) exp(-tau_{k-1}(x + q_s) l_s)`, over n x n samples
-//!   q_s on the cone's base on slab k - 1: a disc of radius `d tan(theta)` (world units),
+//! - the occlusion buffer: with `V_k` the fraction of the cone's light that reaches slab k
+//!   (`V_0 = 1`) and `tau_k = sigma_t * f` the slab's extinction times the fraction `f` of its
+//!   depth inside the box, it holds per pixel the light that slab k - 1 passes on,
+//!   `W(l) = V_{k-1} exp(-tau_{k-1} l)`, for each path length l a cone sample can take. Then
+//!   (the paper's Algorithm 2) `V_k(x) = 1/n^2 sum_s W(l_s)(x + q_s)` over n x n samples q_s
+//!   on the cone's base on slab k - 1: a disc of radius `d tan(theta)` (world units),
 //!   converted to pixels at that slab's depth, which corrects the base for perspective
 //!   (Eq. 12-15: a world length w at depth z covers `w * width / (2 z tan(fov_x / 2))` pixels).
 //!   `l_s` is the exact distance `sqrt(d^2 + |q_s|^2)` or, approximated (Algorithm 3), `d` for
-//!   every sample. The buffer is read bilinearly and clamped to its edges.
+//!   every sample. The buffer is read bilinearly and clamped to its edges. The grid's samples
+//!   lie on ceil(n/2) rings (below), so the exact distance takes that many values, and the
+//!   buffer holds one plane per value: exponentials per pixel and slab are that many, not n^2.
 //! - the eye buffer composites each slab front to back: with alpha = 1 - exp(-sigma_t dt) for
 //!   the clipped segment length dt, `L += T (alpha albedo L_a V_k + emission)` (albedo is
 //!   sigma_s / sigma_t, so `alpha albedo` is the paper's `sigma_s alpha` per unit extinction),
@@ -35,10 +38,12 @@
 //!   opacity never reaches 0.5: no occlusion).
 //!
 //! The n x n grid covers the disc through the concentric (Shirley-Chiu) map of the grid's cell
-//! centres, so every sample carries the same area. Limits (documented behaviour):
+//! centres, so every sample carries the same area; cell (i, j) lands on the ring of radius
+//! max(|2i + 1 - n|, |2j + 1 - n|) / n. Limits (documented behaviour):
 //! - theta = 0 is the line towards the viewer: V is the transmittance back along the view axis;
-//!   tan(theta) is capped at [`MAX_TAN_THETA`] (theta ~ 89.994 degrees): past it the base covers
-//!   the whole image anyway and clamping to the edges decides.
+//!   tan(theta) is capped at [`MAX_TAN_THETA`] (theta ~ 89.994 degrees), and the base's pixel
+//!   radius at [`MAX_RADIUS_PX`]: past them every sample off the centre lands beyond the image
+//!   and clamping to the edges decides, as it would without the caps.
 //! - samples outside the image read the edge pixel (material outside the view is not seen).
 //! - a camera inside the volume starts the slices at depth 0; the base's pixel radius uses the
 //!   previous slab's mid-depth, at least d / 2, so it stays finite.
@@ -129,6 +134,9 @@ pub const MAX_CLIP_PLANES: usize = 6;
 pub const MAX_SLICES: f32 = 1.0e5;
 /// Cap on tan(theta), so that theta near 90 degrees keeps every length finite.
 pub const MAX_TAN_THETA: f32 = 1.0e4;
+/// Cap on the cone base's radius in pixels: times the smallest non-zero ring radius (1/32) it
+/// still exceeds twice the largest image side, so the cap changes no sample's clamped position.
+pub const MAX_RADIUS_PX: f32 = 2_097_152.0;
 /// Cap on a slab's tau in the occlusion buffer: finite, so that interpolating between two
 /// opaque texels never computes inf - inf, and still far past total occlusion.
 pub const MAX_TAU: f32 = 1.0e30;
@@ -211,8 +219,11 @@ pub struct DosSetup {
     pub pixels_per_unit: f32,
     /// The n x n samples on the unit disc.
     pub offsets: Vec<Vec2>,
-    /// Each sample's path length through the previous slab (exact or approximated).
-    pub path_lengths: Vec<f32>,
+    /// Each sample's index into `ring_lengths`.
+    pub sample_ring: Vec<u32>,
+    /// The path lengths through the previous slab that samples take (one per ring for the
+    /// exact distance, d alone for the approximated one): the occlusion buffer's planes.
+    pub ring_lengths: Vec<f32>,
     /// Total ambient radiance L_a.
     pub ambient: Vec3,
 }
@@ -266,26 +277,29 @@ impl DosInput<'_> {
             ));
         }
         let (hx, _) = cam.half_extent();
-        let offsets = disc_grid(self.params.grid);
+        let n = self.params.grid;
         let base_radius = d * self.params.tan_theta();
-        let path_lengths = offsets
-            .iter()
-            .map(|q| match self.params.distance {
-                ConeDistance::Exact => {
-                    let r = q.length() * base_radius;
-                    (d * d + r * r).sqrt()
-                }
-                ConeDistance::Approximate => d,
-            })
-            .collect();
+        let (ring_lengths, sample_ring) = match self.params.distance {
+            ConeDistance::Exact => {
+                let lengths = (0..n.div_ceil(2))
+                    .map(|ring| {
+                        let r = ring_radius(n, ring) * base_radius;
+                        (d * d + r * r).sqrt()
+                    })
+                    .collect();
+                (lengths, disc_rings(n))
+            }
+            ConeDistance::Approximate => (vec![d], vec![0; (n * n) as usize]),
+        };
         Ok(DosSetup {
             slice_distance: d,
             first_depth,
             slabs: count as u32,
             base_radius,
             pixels_per_unit: cam.width as f32 / (2.0 * hx),
-            offsets,
-            path_lengths,
+            offsets: disc_grid(n),
+            sample_ring,
+            ring_lengths,
             ambient: self.lighting.ambient(),
         })
     }
@@ -301,8 +315,28 @@ impl DosSetup {
         } else {
             1.0
         };
-        self.base_radius * self.pixels_per_unit / scale
+        (self.base_radius * self.pixels_per_unit / scale).min(MAX_RADIUS_PX)
     }
+
+    /// Planes of the occlusion buffer.
+    pub fn planes(&self) -> usize {
+        self.ring_lengths.len()
+    }
+}
+
+/// The ring of each cell of the n x n grid (as [`disc_grid`] orders them): ring m has radius
+/// [`ring_radius`]`(n, m)`.
+pub fn disc_rings(n: u32) -> Vec<u32> {
+    let half = |i: u32| (2 * i + 1).abs_diff(n) / 2;
+    (0..n)
+        .flat_map(|j| (0..n).map(move |i| half(i).max(half(j))))
+        .collect()
+}
+
+/// Radius of ring m of the n x n grid on the unit disc: max(|2i + 1 - n|, |2j + 1 - n|) / n,
+/// where that maximum is 2m + 1 for even n and 2m for odd n.
+pub fn ring_radius(n: u32, m: u32) -> f32 {
+    (2 * m + 1 - n % 2) as f32 / n as f32
 }
 
 /// The n x n grid's cell centres mapped onto the unit disc by the concentric map
@@ -390,6 +424,20 @@ mod tests {
         let q = disc_grid(32);
         let r2 = q.iter().map(|p| p.length_squared()).sum::<f32>() / q.len() as f32;
         assert!((r2 - 0.5).abs() < 2e-3, "{r2}");
+    }
+
+    #[test]
+    fn rings_match_the_mapped_radii() {
+        for n in [1, 2, 5, 13, 32] {
+            let rings = disc_rings(n);
+            assert_eq!(*rings.iter().max().unwrap() + 1, n.div_ceil(2));
+            for (q, m) in disc_grid(n).iter().zip(rings) {
+                assert!(
+                    (q.length() - ring_radius(n, m)).abs() < 1e-6,
+                    "n={n}: {q} ring {m}"
+                );
+            }
+        }
     }
 
     #[test]
