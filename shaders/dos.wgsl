@@ -6,8 +6,6 @@
 
 const BACKGROUND_DEPTH: f32 = 1.0e10;
 const MAX_CLIP_PLANES: u32 = 6u;
-// dos::MAX_TAU: keeps interpolation between opaque texels finite.
-const MAX_TAU: f32 = 1.0e30;
 
 struct Params {
     // The view: camera and volume placement (raycast::gpu::ViewUniform).
@@ -139,7 +137,7 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
                 eye_depth[index] = vec2<f32>(ta + log(2.0 * e.w) / o.sigma_t, v);
             }
             eye[index] = vec4<f32>(e.xyz + e.w * light, transmittance);
-            tau = min(o.sigma_t * dt * rate / d, MAX_TAU);
+            tau = o.sigma_t * dt * rate / d;
         }
     }
     for (var p = 0u; p < u32(params.march.y); p = p + 1u) {

@@ -1,6 +1,6 @@
 //! CPU twin of DOS: slabs in order, rayon over image rows within a slab.
 
-use super::{finish, material, DosInput, DosSetup, Formulation, MAX_TAU};
+use super::{finish, material, DosInput, DosSetup, Formulation};
 use crate::camera::intersect_box;
 use crate::error::{Error, Result};
 use crate::progress::Progress;
@@ -209,5 +209,5 @@ fn slab(input: &DosInput, setup: &DosSetup, ray: &PixelRay, k: u32, v: f32, eye:
         eye.occlusion = v;
     }
     eye.transmittance = next;
-    (optical.sigma_t * dt * ray.depth_rate / d).min(MAX_TAU)
+    optical.sigma_t * dt * ray.depth_rate / d
 }

@@ -47,7 +47,7 @@
 //! - samples outside the image read the edge pixel (material outside the view is not seen).
 //! - a camera inside the volume starts the slices at depth 0; the base's pixel radius uses the
 //!   previous slab's mid-depth, at least d / 2, so it stays finite.
-//! - an opaque slab's tau is capped at [`MAX_TAU`], which still occludes completely.
+//! - an opaque slab (sigma_t d overflowing to infinity) passes on exp(-inf) = 0: no light.
 //! - the slice count is capped at [`MAX_SLICES`] (a clear error names `render.slice_distance`).
 //! - only ambient lights light DOS; other lights are an error naming them.
 
@@ -137,9 +137,6 @@ pub const MAX_TAN_THETA: f32 = 1.0e4;
 /// Cap on the cone base's radius in pixels: times the smallest non-zero ring radius (1/32) it
 /// still exceeds twice the largest image side, so the cap changes no sample's clamped position.
 pub const MAX_RADIUS_PX: f32 = 2_097_152.0;
-/// Cap on a slab's tau in the occlusion buffer: finite, so that interpolating between two
-/// opaque texels never computes inf - inf, and still far past total occlusion.
-pub const MAX_TAU: f32 = 1.0e30;
 
 impl DosParams {
     pub fn validate(&self) -> Result<()> {
