@@ -474,3 +474,69 @@ fn bench_ao_times_each_radius_on_a_crop_and_refuses_bad_requests() {
         assert!(!bad.exists());
     }
 }
+
+#[test]
+fn render_with_method_dos_writes_dos_and_occlusion_layers() {
+    use occlux::export::exr::read_exr;
+    let dir = tempfile::tempdir().unwrap();
+    let scene_path = dir.path().join("dos.toml");
+    std::fs::write(
+        &scene_path,
+        r#"
+background = 0.1
+[volume]
+phantom = "ct"
+size = 24
+[camera]
+position = [3, -2, 1]
+target = [0, 0, 0]
+fov_deg = 40
+width = 12
+height = 10
+[[lights]]
+type = "ambient"
+radiance = 0.5
+[render]
+method = "dos"
+theta_deg = 60
+grid = 2
+"#,
+    )
+    .unwrap();
+    let out = dir.path().join("out");
+    let run = occlux(&[
+        "render",
+        scene_path.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+        "--device",
+        "cpu",
+        "--float32",
+    ]);
+    assert!(
+        run.status.success(),
+        "{}",
+        String::from_utf8_lossy(&run.stderr)
+    );
+    let scene = Scene::from_file(&scene_path).unwrap();
+    let volume = scene.load_volume().unwrap();
+    let img = pipeline::render(&scene, &volume, &Compute::Cpu, &NoProgress)
+        .unwrap()
+        .image;
+    let exr = read_exr(&out.join("dos.exr")).unwrap();
+    let dos = exr.layer("dos").expect("a dos layer");
+    let beauty = exr.layer("beauty").unwrap();
+    assert_eq!(dos.pixels, beauty.pixels);
+    let want: Vec<f32> = img.rgba.iter().flatten().copied().collect();
+    assert_eq!(dos.pixels.len(), want.len());
+    // Channels come back in the file's (sorted) order: match them by name.
+    for (c, name) in dos.channels.iter().enumerate() {
+        let k = ["R", "G", "B", "A"].iter().position(|x| x == name).unwrap();
+        for (p, got) in dos.pixels.iter().skip(c).step_by(4).enumerate() {
+            assert_eq!(*got, want[4 * p + k], "{name}[{p}]");
+        }
+    }
+    let occlusion = exr.layer("occlusion").expect("an occlusion layer");
+    assert_eq!(&occlusion.pixels, img.occlusion.as_ref().unwrap());
+    assert!(img.occlusion.unwrap().iter().any(|o| *o < 1.0));
+}
