@@ -23,7 +23,8 @@ struct Params {
     lut_size: vec4<f32>,       // entries along value, along gradient
     ambient: vec4<f32>,
     slabs: vec4<f32>,          // slice distance, depth of slice 0, cone samples, clip planes
-    march: vec4<f32>,          // x: 1 lock-step rays (t = depth), 0 view-aligned slices; y: planes
+    march: vec4<f32>,          // x: 1 lock-step rays (t = depth), 0 view-aligned slices; y: planes;
+                               // z: 1 self-occlusion
     clip_point: array<vec4<f32>, MAX_CLIP_PLANES>,
     clip_normal: array<vec4<f32>, MAX_CLIP_PLANES>,
 };
@@ -131,7 +132,11 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
         if (o.sigma_t > 0.0 || any(o.emission != vec3<f32>(0.0))) {
             var e = eye[index];
             let alpha = 1.0 - exp(-o.sigma_t * dt);
-            let light = alpha * o.albedo * params.ambient.xyz * v + emitted(o, alpha, dt);
+            var lit = v;
+            if (params.march.z == 1.0) {
+                lit = v * exp(-0.5 * o.sigma_t * dt);
+            }
+            let light = alpha * o.albedo * params.ambient.xyz * lit + emitted(o, alpha, dt);
             let transmittance = e.w * (1.0 - alpha);
             if (e.w > 0.5 && transmittance <= 0.5) {
                 eye_depth[index] = vec2<f32>(ta + log(2.0 * e.w) / o.sigma_t, v);

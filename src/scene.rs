@@ -36,6 +36,7 @@
 //! # slice_distance = 0.01                      # world units; default: the smallest voxel spacing
 //! # distance = "exact"                         # or "approximate"
 //! # formulation = "slices"                     # or "rays" (lock-step ray marching)
+//! # self_occlusion = false                     # true: light also crosses the sample's own half segment
 //! # clip_planes = [{ point = [0, 0, 0], normal = [1, 0, 0] }]   # removes x > 0
 //! ```
 //!
@@ -329,6 +330,7 @@ struct RenderSection {
     slice_distance: Option<f32>,
     distance: Option<String>,
     formulation: Option<String>,
+    self_occlusion: Option<bool>,
     clip_planes: Option<Vec<ClipPlaneSection>>,
 }
 
@@ -360,6 +362,7 @@ impl Default for RenderSection {
             slice_distance: None,
             distance: None,
             formulation: None,
+            self_occlusion: None,
             clip_planes: None,
         }
     }
@@ -611,6 +614,7 @@ impl RenderSection {
             ("slice_distance", self.slice_distance.is_some()),
             ("distance", self.distance.is_some()),
             ("formulation", self.formulation.is_some()),
+            ("self_occlusion", self.self_occlusion.is_some()),
             ("clip_planes", self.clip_planes.is_some()),
         ];
         refuse_keys(&dos_keys, "dos")?;
@@ -765,6 +769,7 @@ impl RenderSection {
             slice_distance: self.slice_distance,
             distance,
             formulation,
+            self_occlusion: self.self_occlusion.unwrap_or(d.self_occlusion),
             clip_planes,
         };
         params.validate()?;

@@ -5,7 +5,8 @@
 //! slice recursion has a closed form: with a = exp(-sigma d) the slab transmittance and
 //! m = 1/n^2 sum_s exp(-sigma l_s) the cone's mean attenuation per slab (m = a for theta = 0
 //! or the approximated distance), slab k is lit by V_k = m^k and seen through T_k = a^k, so
-//! `L = L_a albedo (1 - a) sum_{k<N} (a m)^k + a^N L_b`.
+//! `L = L_a albedo (1 - a) sum_{k<N} (a m)^k + a^N L_b`; self-occlusion multiplies the lit
+//! term by sqrt(a), the light's transmittance through the front half of the sample's slab.
 
 use glam::{Vec2, Vec3};
 use occlux::camera::{Camera, Projection};
@@ -103,7 +104,8 @@ fn slab_closed_form(sigma: f32, params: &DosParams) -> f32 {
                 / q.len() as f64
         }
     };
-    let lit = (AMBIENT * ALBEDO) as f64 * (1.0 - a) * (1.0 - (a * m).powi(n)) / (1.0 - a * m);
+    let own = if params.self_occlusion { a.sqrt() } else { 1.0 };
+    let lit = (AMBIENT * ALBEDO) as f64 * own * (1.0 - a) * (1.0 - (a * m).powi(n)) / (1.0 - a * m);
     (lit + a.powi(n) * BACKGROUND as f64) as f32
 }
 
@@ -146,19 +148,22 @@ fn homogeneous_cube_matches_the_slice_recursion_closed_form() {
     let lut = homogeneous(&volume, sigma);
     let camera = top_camera(12);
     let mut worst = 0.0f32;
-    for (theta_deg, grid, distance) in [
-        (0.0, 1, ConeDistance::Exact),
-        (0.0, 5, ConeDistance::Exact),
-        (30.0, 5, ConeDistance::Exact),
-        (60.0, 13, ConeDistance::Exact),
-        (60.0, 5, ConeDistance::Approximate),
-        (85.0, 2, ConeDistance::Exact),
+    for (theta_deg, grid, distance, self_occlusion) in [
+        (0.0, 1, ConeDistance::Exact, false),
+        (0.0, 5, ConeDistance::Exact, false),
+        (30.0, 5, ConeDistance::Exact, false),
+        (60.0, 13, ConeDistance::Exact, false),
+        (60.0, 5, ConeDistance::Approximate, false),
+        (85.0, 2, ConeDistance::Exact, false),
+        (0.0, 1, ConeDistance::Exact, true),
+        (60.0, 5, ConeDistance::Exact, true),
     ] {
         let params = DosParams {
             theta_deg,
             grid,
             slice_distance: Some(0.125),
             distance,
+            self_occlusion,
             ..DosParams::default()
         };
         let img = render(&volume, &lut, &camera, &params);
@@ -168,7 +173,7 @@ fn homogeneous_cube_matches_the_slice_recursion_closed_form() {
             worst = worst.max(err);
             assert!(
                 err < 2e-5,
-                "theta {theta_deg}, n {grid}, {distance:?}: {} vs {want}",
+                "theta {theta_deg}, n {grid}, {distance:?}, self {self_occlusion}: {} vs {want}",
                 rgba[0]
             );
             assert!((rgba[3] - (1.0 - (-2.0 * sigma).exp())).abs() < 1e-5);
@@ -239,6 +244,7 @@ fn clipped_material_neither_shows_nor_occludes() {
         slice_distance: Some(0.125),
         distance: ConeDistance::Exact,
         formulation: Formulation::Slices,
+        self_occlusion: false,
         clip_planes: vec![ClipPlane {
             point: Vec3::ZERO,
             normal: Vec3::Z,

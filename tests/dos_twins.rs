@@ -149,6 +149,7 @@ fn two_dimensional_tf_clip_planes_and_wide_cones_agree() {
         slice_distance: Some(0.05),
         distance: ConeDistance::Exact,
         formulation: Formulation::Slices,
+        self_occlusion: true,
         clip_planes: vec![
             ClipPlane {
                 point: Vec3::new(0.0, -0.2, 0.0),

@@ -208,7 +208,7 @@ fn dos_method_takes_its_parameters() {
     use occlux::render::dos::{ClipPlane, ConeDistance, DosParams, Formulation};
     let text = format!(
         "{MINIMAL}[render]\nmethod = \"dos\"\ntheta_deg = 30\ngrid = 13\nslice_distance = 0.01\n\
-         distance = \"approximate\"\nformulation = \"rays\"\nclip_planes = [{{ point = [0, 0, 1], normal = [0, 0, 2] }}]\n"
+         distance = \"approximate\"\nformulation = \"rays\"\nself_occlusion = true\nclip_planes = [{{ point = [0, 0, 1], normal = [0, 0, 2] }}]\n"
     );
     let scene = parse(&text).unwrap();
     assert_eq!(
@@ -219,6 +219,7 @@ fn dos_method_takes_its_parameters() {
             slice_distance: Some(0.01),
             distance: ConeDistance::Approximate,
             formulation: Formulation::Rays,
+            self_occlusion: true,
             clip_planes: vec![ClipPlane {
                 point: Vec3::Z,
                 normal: Vec3::Z,

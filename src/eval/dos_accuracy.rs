@@ -42,6 +42,9 @@ pub struct AccuracyArgs {
     /// Reference samples per pixel.
     #[arg(long, default_value_t = 256)]
     pub spp: u32,
+    /// Render with DOS's self-occlusion option (not in the paper).
+    #[arg(long)]
+    pub self_occlusion: bool,
     /// Where DOS runs: auto picks a GPU adapter if one opens (references run on the CPU).
     #[arg(long, value_enum, default_value = "auto")]
     pub device: DeviceChoice,
@@ -196,6 +199,7 @@ pub fn run(args: &AccuracyArgs, quiet: bool) -> Result<()> {
                     theta_deg,
                     grid,
                     distance: ConeDistance::Exact,
+                    self_occlusion: args.self_occlusion,
                     ..DosParams::default()
                 };
                 let input = DosInput {
@@ -241,12 +245,14 @@ pub fn run(args: &AccuracyArgs, quiet: bool) -> Result<()> {
     struct Report<'a> {
         size: u32,
         spp: u32,
+        self_occlusion: bool,
         device: String,
         rows: &'a [AccuracyRow],
     }
     let report = Report {
         size: args.size,
         spp: args.spp,
+        self_occlusion: args.self_occlusion,
         device: compute.describe(),
         rows: &rows,
     };

@@ -15,7 +15,7 @@ use rayon::prelude::*;
 struct PixelRay {
     origin: Vec3,
     dir: Vec3,
-    /// Depth gained per unit of t (dir . forward).
+    /// Depth gained per unit of t: dir . forward for slices, 1 for lock-step rays.
     depth_rate: f32,
     /// [t_near, t_far] inside the box; empty (near >= far) when the ray misses it.
     span: (f32, f32),
@@ -201,7 +201,12 @@ fn slab(input: &DosInput, setup: &DosSetup, ray: &PixelRay, k: u32, v: f32, eye:
         return 0.0;
     }
     let alpha = 1.0 - (-optical.sigma_t * dt).exp();
-    let light = alpha * optical.albedo * setup.ambient * v + emitted(&optical, alpha, dt);
+    let lit = if input.params.self_occlusion {
+        v * (-0.5 * optical.sigma_t * dt).exp()
+    } else {
+        v
+    };
+    let light = alpha * optical.albedo * setup.ambient * lit + emitted(&optical, alpha, dt);
     eye.radiance += eye.transmittance * light;
     let next = eye.transmittance * (1.0 - alpha);
     if eye.transmittance > 0.5 && next <= 0.5 {

@@ -184,7 +184,7 @@ fn params(input: &DosInput, setup: &DosSetup) -> Params {
         march: Vec4::new(
             f32::from(u8::from(input.params.formulation == Formulation::Rays)),
             setup.planes() as f32,
-            0.0,
+            f32::from(u8::from(input.params.self_occlusion)),
             0.0,
         ),
         clip_point,

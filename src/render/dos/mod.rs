@@ -33,7 +33,11 @@
 //! - the eye buffer composites each slab front to back: with alpha = 1 - exp(-sigma_t dt) for
 //!   the clipped segment length dt, `L += T (alpha albedo L_a V_k + emission)` (albedo is
 //!   sigma_s / sigma_t, so `alpha albedo` is the paper's `sigma_s alpha` per unit extinction),
-//!   `T *= 1 - alpha`; the background adds `T L_b` at the end. Depth is where T falls through
+//!   `T *= 1 - alpha`; the background adds `T L_b` at the end. With `self_occlusion` (not in
+//!   the paper) the light is also attenuated through the half of the pixel's own segment in
+//!   front of its sample, `V_k exp(-sigma_t dt / 2)`, as the light reaching the sample point;
+//!   measured against the cone reference at 96^2 (theta 30, n 5) it cut the dense engine's
+//!   relative RMSE from 0.139 to 0.082 (bias +12 % to +4 %). Depth is where T falls through
 //!   0.5 (as the ray caster finds it) and the `occlusion` output is `V_k` there (1 where the
 //!   opacity never reaches 0.5: no occlusion).
 //!
@@ -107,8 +111,13 @@ pub struct DosParams {
     pub grid: u32,
     /// Distance between slices in world units; None: the smallest voxel spacing.
     pub slice_distance: Option<f32>,
+    /// Exact or approximated path lengths of the cone samples.
     pub distance: ConeDistance,
+    /// View-aligned slices or lock-step rays.
     pub formulation: Formulation,
+    /// Attenuate each sample's light through the front half of its own segment (off: the
+    /// paper's algorithm, lit by the previous slab's buffer alone).
+    pub self_occlusion: bool,
     /// At most [`MAX_CLIP_PLANES`].
     pub clip_planes: Vec<ClipPlane>,
 }
@@ -121,6 +130,7 @@ impl Default for DosParams {
             slice_distance: None,
             distance: ConeDistance::Exact,
             formulation: Formulation::Slices,
+            self_occlusion: false,
             clip_planes: Vec::new(),
         }
     }
