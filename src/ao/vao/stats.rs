@@ -76,7 +76,7 @@ pub const QUANTITIES: [(Reduce, bool); 4] = [
 ];
 
 /// Lanes per job of the z pass (a chunk of each slice).
-const Z_CHUNK: usize = 1024;
+const Z_CHUNK: usize = 256;
 
 /// Computes the statistics of `field` mapped by `map` over boxes of radius `radius` voxels.
 /// The x and y passes run slice by slice on all four quantities while the slice is in cache;
