@@ -1,14 +1,24 @@
-"""The add-on's operators: load and classify a volume into the scene, composite Occlux's EXR
-layers with the render. Each checks its input first and creates nothing when it fails."""
+"""The add-on's operators: load and classify a volume into the scene, compute its ambient
+occlusion, composite Occlux's EXR layers with the render. Each checks its input first and
+creates nothing when it fails.
+
+The long ones are jobs: `prepare` reads the settings and checks them on the main thread and
+returns the work, a function of a `JobProgress` that touches no Blender data (so that it can run
+in a thread); `finish` brings its result into the scene on the main thread."""
 
 from __future__ import annotations
 
+import os
 import tempfile
+import threading
+from collections.abc import Callable
+from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import bpy
 import numpy as np
-from bpy.props import EnumProperty, StringProperty
+from bpy.props import EnumProperty, IntProperty, StringProperty
 
 from . import nodes
 
@@ -23,6 +33,10 @@ RAW_DTYPES = {
     "float64": "<f8",
 }
 
+# A scene for `occlux.ao_volume`, which reads only its classification: the volume is passed
+# explicitly and the camera is unused.
+AO_SCENE = '[volume]\nphantom = "sphere"\nsize = 4\n[camera]\nposition = [0, -4, 0]\n'
+
 
 def output_dir(settings) -> Path:
     """The output folder: `//` is the .blend file's folder (a temporary folder for an unsaved
@@ -33,102 +47,278 @@ def output_dir(settings) -> Path:
     return Path(bpy.path.abspath(raw))
 
 
-class Progress:
-    """Occlux progress callbacks as Blender's window-manager progress."""
+@dataclass(frozen=True)
+class VolumeInput:
+    """The volume settings, read on the main thread so that the work needs no Blender data."""
 
-    def __init__(self, context: bpy.types.Context) -> None:
-        self.wm = context.window_manager
-        self.wm.progress_begin(0, 1)
+    path: Path
+    setting: str  # the path as the user typed it, kept on the object
+    raw_dims: tuple[int, int, int]
+    raw_type: str
+    raw_spacing: tuple[float, float, float]
+    fit: float
 
-    def __call__(self, done: int, total: int) -> None:
-        self.wm.progress_update(done / max(total, 1))
+    @staticmethod
+    def from_settings(settings) -> VolumeInput:
+        path = Path(bpy.path.abspath(settings.volume_path))
+        if not settings.volume_path or not path.is_file():
+            raise FileNotFoundError(f"no volume file at '{path}'")
+        return VolumeInput(
+            path,
+            settings.volume_path,
+            tuple(settings.raw_dims),
+            settings.raw_type,
+            tuple(settings.raw_spacing),
+            settings.fit,
+        )
 
-    def end(self) -> None:
-        self.wm.progress_end()
+    @property
+    def stem(self) -> str:
+        return self.path.name.split(".")[0]
+
+    def load(self):
+        """The volume file as an `occlux.Volume`, scaled so its largest side is `fit` and
+        centred at the origin."""
+        import occlux
+
+        path = self.path
+        if path.suffix.lower() == ".raw":
+            nx, ny, nz = self.raw_dims
+            dtype = np.dtype(RAW_DTYPES[self.raw_type])
+            expected = nx * ny * nz * dtype.itemsize
+            if path.stat().st_size != expected:
+                raise ValueError(
+                    f"{path} holds {path.stat().st_size} bytes, but {nx}x{ny}x{nz} "
+                    f"{self.raw_type} needs {expected}"
+                )
+            values = np.fromfile(path, dtype=dtype).reshape(nz, ny, nx)
+            volume = occlux.Volume(values, spacing=self.raw_spacing)
+        else:
+            volume = occlux.Volume.load(path)
+        dims = np.array(volume.dims, float)
+        extent = dims * np.array(volume.spacing)
+        scale = self.fit / extent.max()
+        spacing = np.array(volume.spacing) * scale
+        origin = -0.5 * extent * scale + 0.5 * spacing
+        return occlux.Volume(volume.values, spacing=tuple(spacing), origin=tuple(origin))
 
 
-def load_volume(settings):
-    """The volume file as an `occlux.Volume`, scaled so its largest side is `settings.fit` and
-    centred at the origin."""
+def write_vdb(path: Path, grids: dict) -> None:
+    """Writes the grids under a temporary name in the same folder, then renames it into place:
+    a cancelled or failed job never leaves a partial file under the name Blender would load."""
     import occlux
 
-    path = Path(bpy.path.abspath(settings.volume_path))
-    if not settings.volume_path or not path.is_file():
-        raise FileNotFoundError(f"no volume file at '{path}'")
-    if path.suffix.lower() == ".raw":
-        nx, ny, nz = settings.raw_dims
-        dtype = np.dtype(RAW_DTYPES[settings.raw_type])
-        expected = nx * ny * nz * dtype.itemsize
-        if path.stat().st_size != expected:
-            raise ValueError(
-                f"{path} holds {path.stat().st_size} bytes, but {nx}x{ny}x{nz} "
-                f"{settings.raw_type} needs {expected}"
-            )
-        values = np.fromfile(path, dtype=dtype).reshape(nz, ny, nx)
-        volume = occlux.Volume(values, spacing=tuple(settings.raw_spacing))
-    else:
-        volume = occlux.Volume.load(path)
-    dims = np.array(volume.dims, float)
-    extent = dims * np.array(volume.spacing)
-    scale = settings.fit / extent.max()
-    spacing = np.array(volume.spacing) * scale
-    origin = -0.5 * extent * scale + 0.5 * spacing
-    return occlux.Volume(volume.values, spacing=tuple(spacing), origin=tuple(origin)), path
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.stem}-", suffix=".vdb", dir=path.parent)
+    os.close(fd)
+    try:
+        occlux.write_vdb(tmp, grids)
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
 
 
-class OCCLUX_OT_import_volume(bpy.types.Operator):
+class JobProgress:
+    """The progress callback the core calls, from its own threads: it only records (no Blender
+    calls off the main thread) and answers False once cancelled, which stops the core."""
+
+    def __init__(self, cancel_after: int = 0) -> None:
+        self.done = 0
+        self.total = 1
+        self.calls = 0
+        self.cancel_after = cancel_after
+        self.cancel = threading.Event()
+        self.lock = threading.Lock()
+
+    def __call__(self, done: int, total: int) -> bool:
+        with self.lock:
+            self.done, self.total = done, max(total, 1)
+            self.calls += 1
+            if self.cancel_after and self.calls >= self.cancel_after:
+                self.cancel.set()
+        return not self.cancel.is_set()
+
+    @property
+    def fraction(self) -> float:
+        with self.lock:
+            return min(self.done / self.total, 1.0)
+
+
+def set_status(context: bpy.types.Context, text: str, fraction: float = 0.0) -> None:
+    """The status line and progress bar the panel shows."""
+    settings = context.scene.occlux
+    settings.status = text
+    settings.progress = fraction
+    for window in context.window_manager.windows:
+        for area in window.screen.areas:
+            if area.type == "VIEW_3D":
+                area.tag_redraw()
+
+
+class OccluxJob:
+    """The frame of a long operator (see the module's docstring)."""
+
+    cancel_after: IntProperty(
+        name="Cancel after",
+        description="Cancel after this many progress reports, as ESC does (for scripts and "
+        "tests; 0: never)",
+        min=0,
+        default=0,
+        options={"HIDDEN", "SKIP_SAVE"},
+    )
+
+    def prepare(self, context: bpy.types.Context) -> Callable[[JobProgress], Any]:
+        raise NotImplementedError
+
+    def finish(self, context: bpy.types.Context, result: Any) -> str:
+        raise NotImplementedError
+
+    def errors(self) -> tuple[type[BaseException], ...]:
+        import occlux
+
+        return (OSError, ValueError, TypeError, occlux.OccluxError)
+
+    def execute(self, context: bpy.types.Context) -> set[str]:
+        """The synchronous path (scripts, EXEC_DEFAULT): the same work, on this thread."""
+        progress = JobProgress(self.cancel_after)
+        set_status(context, f"{self.bl_label}: running")
+        try:
+            result = self.prepare(context)(progress)
+        except self.errors() as e:
+            return self.failed(context, e, progress)
+        return self.succeeded(context, result)
+
+    def succeeded(self, context: bpy.types.Context, result: Any) -> set[str]:
+        try:
+            message = self.finish(context, result)
+        except self.errors() as e:
+            return self.failed(context, e, None)
+        set_status(context, message, 1.0)
+        self.report({"INFO"}, message)
+        return {"FINISHED"}
+
+    def failed(
+        self, context: bpy.types.Context, error: BaseException, progress: JobProgress | None
+    ) -> set[str]:
+        if progress is not None and progress.cancel.is_set():
+            message = f"{self.bl_label}: cancelled, nothing was added"
+            set_status(context, message)
+            self.report({"WARNING"}, message)
+        else:
+            set_status(context, f"{self.bl_label} failed: {error}")
+            self.report({"ERROR"}, str(error))
+        return {"CANCELLED"}
+
+
+@dataclass(frozen=True)
+class Loaded:
+    """A VDB written by a job, with what its material needs."""
+
+    vdb: Path
+    source: VolumeInput
+    classification: Any
+    volume: Any
+
+
+def classification_of(settings):
+    import occlux
+
+    return occlux.Classification.preset(settings.preset, density_scale=settings.density_scale)
+
+
+class OCCLUX_OT_import_volume(OccluxJob, bpy.types.Operator):
     """Load the volume file, classify it with the preset and add it as a Volume object"""
 
     bl_idname = "occlux.import_volume"
     bl_label = "Load Volume"
     bl_options = {"REGISTER", "UNDO"}
 
-    def execute(self, context: bpy.types.Context) -> set[str]:
+    def prepare(self, context: bpy.types.Context) -> Callable[[JobProgress], Loaded]:
+        settings = context.scene.occlux
+        source = VolumeInput.from_settings(settings)
+        classification = classification_of(settings)
+        vdb = output_dir(settings) / f"{source.stem}.vdb"
+
+        def work(progress: JobProgress) -> Loaded:
+            volume = source.load()
+            density = classification.extinction(volume)
+            write_vdb(vdb, {"density": density, "value": volume})
+            return Loaded(vdb, source, classification, volume)
+
+        return work
+
+    def finish(self, context: bpy.types.Context, result: Loaded) -> str:
+        obj = add_volume_object(context, result, ao=None)
+        return f"loaded {result.source.path.name} as '{obj.name}' ({result.vdb})"
+
+
+class OCCLUX_OT_compute_ao(OccluxJob, bpy.types.Operator):
+    """Compute the volume's ambient occlusion (VAO) with Occlux and add it as a Volume object
+    whose material is shaded by the `ao` grid"""
+
+    bl_idname = "occlux.compute_ao"
+    bl_label = "Compute AO"
+    bl_options = {"REGISTER", "UNDO"}
+
+    def prepare(self, context: bpy.types.Context) -> Callable[[JobProgress], Loaded]:
         import occlux
 
         settings = context.scene.occlux
-        progress = Progress(context)
-        try:
-            volume, source = load_volume(settings)
-            classification = occlux.Classification.preset(
-                settings.preset, density_scale=settings.density_scale
-            )
+        source = VolumeInput.from_settings(settings)
+        classification = classification_of(settings)
+        method, radius, device = settings.ao_method, settings.ao_radius, settings.device
+        vdb = output_dir(settings) / f"{source.stem}-ao.vdb"
+
+        def work(progress: JobProgress) -> Loaded:
+            volume = source.load()
+            scene = occlux.Scene.from_toml(AO_SCENE)
+            scene.classification = classification
+            ao = occlux.ao_volume(
+                scene, method=method, radius=radius, device=device, volume=volume,
+                progress=progress,
+            )["ao"]  # fmt: skip
             density = classification.extinction(volume)
-            folder = output_dir(settings)
-            folder.mkdir(parents=True, exist_ok=True)
-            vdb = folder / f"{source.name.split('.')[0]}.vdb"
-            occlux.write_vdb(vdb, {"density": density, "value": volume})
-        except (OSError, ValueError, TypeError, occlux.OccluxError) as e:
-            self.report({"ERROR"}, str(e))
-            return {"CANCELLED"}
-        finally:
-            progress.end()
-        obj = add_volume_object(context, vdb, classification, volume, has_ao=False)
-        self.report({"INFO"}, f"loaded {source.name} as '{obj.name}' ({vdb})")
-        return {"FINISHED"}
+            write_vdb(vdb, {"density": density, "value": volume, "ao": ao})
+            return Loaded(vdb, source, classification, volume)
+
+        return work
+
+    def finish(self, context: bpy.types.Context, result: Loaded) -> str:
+        settings = context.scene.occlux
+        obj = add_volume_object(context, result, ao=settings.ao_shading)
+        return (
+            f"AO ({settings.ao_method}, radius {settings.ao_radius}) of "
+            f"{result.source.path.name} as '{obj.name}' ({result.vdb})"
+        )
 
 
-def add_volume_object(context, vdb: Path, classification, volume, has_ao: bool):
-    """A Volume object for `vdb` with the Occlux material; the previous one is replaced."""
-    name = vdb.stem
+def add_volume_object(context: bpy.types.Context, loaded: Loaded, ao: str | None):
+    """A Volume object for the VDB with the Occlux material; the previous one of that name is
+    replaced. If Blender cannot read the file, nothing is added (and the file is removed)."""
+    name = loaded.vdb.stem
+    data = bpy.data.volumes.new(name)
+    data.filepath = str(loaded.vdb)
+    if not data.grids.load():
+        error = data.grids.error_message
+        bpy.data.volumes.remove(data)
+        loaded.vdb.unlink(missing_ok=True)
+        raise OSError(f"Blender cannot read {loaded.vdb}: {error}")
     old = bpy.data.objects.get(name)
     if old is not None:
         bpy.data.objects.remove(old)
-    data = bpy.data.volumes.new(name)
-    data.filepath = str(vdb)
-    data.grids.load()
     obj = bpy.data.objects.new(name, data)
     context.scene.collection.objects.link(obj)
     material = nodes.volume_material(
         f"Occlux {name}",
-        classification.points,
-        volume.value_range,
-        classification.units,
-        has_ao,
+        loaded.classification.points,
+        loaded.volume.value_range,
+        loaded.classification.units,
+        ao,
         context.scene.occlux.ao_factor,
     )
     data.materials.append(material)
-    obj["occlux_source"] = context.scene.occlux.volume_path
+    obj["occlux_source"] = loaded.source.setting
     return obj
 
 
@@ -165,7 +355,7 @@ class OCCLUX_OT_composite(bpy.types.Operator):
         return {"FINISHED"}
 
 
-CLASSES = (OCCLUX_OT_import_volume, OCCLUX_OT_composite)
+CLASSES = (OCCLUX_OT_import_volume, OCCLUX_OT_compute_ao, OCCLUX_OT_composite)
 
 
 def register() -> None:

@@ -24,10 +24,20 @@ class VIEW3D_PT_occlux(bpy.types.Panel):
         column.prop(settings, "density_scale")
         column.prop(settings, "fit")
         column.prop(settings, "output_dir")
+        column.prop(settings, "device")
         layout.operator("occlux.import_volume", icon="VOLUME_DATA")
         layout.separator()
-        layout.prop(settings, "ao_factor")
+        column = layout.column(align=True)
+        column.prop(settings, "ao_method")
+        column.prop(settings, "ao_radius")
+        column.prop(settings, "ao_shading")
+        column.prop(settings, "ao_factor")
+        layout.operator("occlux.compute_ao", icon="SHADING_RENDERED")
+        layout.separator()
         layout.operator("occlux.composite", icon="NODE_COMPOSITING")
+        if settings.status:
+            layout.separator()
+            layout.progress(factor=settings.progress, text=settings.status)
 
 
 def register() -> None:

@@ -6,20 +6,30 @@ import bpy
 from bpy.props import (
     EnumProperty,
     FloatProperty,
+    IntProperty,
     IntVectorProperty,
     PointerProperty,
     StringProperty,
 )
 
+from . import nodes
+
 PRESETS = ("ct-bone", "ct-soft-tissue", "mri", "simulation", "boundary-2d")
+AO_METHODS = (
+    ("cdf", "CDF", "Normal-CDF estimate of the occluded fraction (the paper's default)"),
+    ("gauss", "Gauss", "Gaussian estimate from the local mean and variance"),
+    ("gauss-exact", "Gauss (exact)", "Gaussian estimate with the exact ball integral"),
+    ("penner", "Penner", "Penner's estimate from the local extremes"),
+    ("exact", "Exact", "Count the voxels in every ball: slow, CPU only, the reference"),
+)
 RAW_TYPES = ("uint8", "int8", "uint16", "int16", "uint32", "int32", "float32", "float64")
 
 
 def _update_ao_factor(settings: OccluxSettings, context: bpy.types.Context) -> None:
     """Moves the AO factor node of every Occlux material to the new value."""
     for material in bpy.data.materials:
-        if material.node_tree and "Occlux AO factor" in material.node_tree.nodes:
-            node = material.node_tree.nodes["Occlux AO factor"]
+        if material.node_tree and nodes.AO_FACTOR in material.node_tree.nodes:
+            node = material.node_tree.nodes[nodes.AO_FACTOR]
             node.outputs[0].default_value = settings.ao_factor
 
 
@@ -73,13 +83,51 @@ class OccluxSettings(bpy.types.PropertyGroup):
         subtype="DIR_PATH",
         default="//occlux/",
     )
+    device: EnumProperty(
+        name="Device",
+        items=[
+            ("auto", "Auto", "A GPU adapter if one opens, else the CPU"),
+            ("gpu", "GPU", "The GPU (an error if none opens)"),
+            ("cpu", "CPU", "The CPU twin"),
+        ],
+        default="auto",
+    )
+    ao_method: EnumProperty(
+        name="AO method",
+        description="How the occluded fraction of each voxel's tangent sphere is estimated",
+        items=AO_METHODS,
+        default="cdf",
+    )
+    ao_radius: IntProperty(
+        name="AO radius",
+        description="Radius of the tangent sphere, in voxels",
+        min=1,
+        soft_max=64,
+        default=10,
+    )
+    ao_shading: EnumProperty(
+        name="AO shading",
+        description="What the `ao` grid drives in the material",
+        items=[
+            ("ALBEDO", "Darken albedo", "Multiply the albedo by mix(1, ao, strength)"),
+            ("EMISSION", "Emission", "Emit the albedo colour with strength x ao"),
+        ],
+        default="ALBEDO",
+    )
     ao_factor: FloatProperty(
         name="AO strength",
-        description="How much the `ao` grid darkens the albedo (0: not at all, 1: fully)",
+        description="How much the `ao` grid darkens the albedo (0: not at all, 1: fully) or, "
+        "for emission, the emission strength at ao = 1",
         min=0.0,
-        max=1.0,
+        soft_max=1.0,
         default=1.0,
         update=_update_ao_factor,
+    )
+
+    # What the running or last job says, shown in the panel (written on the main thread).
+    status: StringProperty(name="Status", options={"SKIP_SAVE"})
+    progress: FloatProperty(
+        name="Progress", subtype="FACTOR", min=0.0, max=1.0, options={"SKIP_SAVE"}
     )
 
 

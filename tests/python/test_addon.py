@@ -22,6 +22,8 @@ from occlux_testing import REPO
 
 SHARED = REPO.parent / "shared" / "data" / "scivis"
 RESULT = "OCCLUX-RESULT "
+# A scene for occlux.ao_volume, which reads only its classification.
+AO_SCENE = '[volume]\nphantom = "sphere"\n[camera]\nposition = [0, -4, 0]\n'
 
 # An operator that reports an error raises RuntimeError with the report when called from
 # Python: `attempt` records either the operator's result or that message.
@@ -81,7 +83,7 @@ def test_the_extension_installs_registers_and_reloads(extension: Path, tmp_path:
         extension,
         tmp_path,
         """
-        ops = ("import_volume", "composite")
+        ops = ("import_volume", "compute_ao", "composite")
         result["registered"] = [hasattr(bpy.ops.occlux, op) for op in ops]
         result["panel"] = hasattr(bpy.types, "VIEW3D_PT_occlux")
         result["settings"] = hasattr(bpy.types.Scene, "occlux")
@@ -93,7 +95,7 @@ def test_the_extension_installs_registers_and_reloads(extension: Path, tmp_path:
         result["after_reload"] = hasattr(bpy.ops.occlux, "import_volume")
         """,
     )
-    assert result["registered"] == [True, True] and result["panel"] and result["settings"]
+    assert result["registered"] == [True, True, True] and result["panel"] and result["settings"]
     assert result["after_disable"] is False and result["after_reload"] is True
     # The occlux package came from the wheel inside the extension, not from this checkout.
     assert str(tmp_path) in result["occlux_from"], result["occlux_from"]
@@ -203,3 +205,73 @@ def test_composite_builds_the_compositor_group(extension: Path, tmp_path: Path) 
     assert result["image_to"] == "ShaderNodeMix"
     assert "no layer 'dos'" in result["bad"], result["bad"]
     assert result["groups"] == 1, "the failed request left no node group behind"
+
+
+@pytest.mark.parametrize(
+    ("source", "method", "shading"),
+    [("phantom", "cdf", "ALBEDO"), ("tooth", "gauss", "EMISSION")],
+)
+def test_compute_ao_adds_a_volume_shaded_by_its_ao_grid(
+    extension: Path, tmp_path: Path, openvdb, source: str, method: str, shading: str
+) -> None:
+    if source == "phantom":
+        path, preset = phantom_npy(tmp_path), "ct-soft-tissue"
+    else:
+        path, preset = SHARED / "tooth.nrrd", "ct-bone"
+    out = tmp_path / "out"
+    result, output = blender(
+        extension,
+        tmp_path / "user",
+        f"""
+        s = bpy.context.scene.occlux
+        s.volume_path = {str(path)!r}
+        s.preset = {preset!r}
+        s.output_dir = {str(out) + "/"!r}
+        s.ao_method, s.ao_radius, s.ao_shading, s.device = {method!r}, 4, {shading!r}, "cpu"
+        s.ao_factor = 0.7
+        result["op"] = list(bpy.ops.occlux.compute_ao())
+        obj = bpy.data.objects[{path.stem + "-ao"!r}]
+        result["grids"] = sorted(g.name for g in obj.data.grids)
+        result["filepath"] = obj.data.filepath
+        result["status"] = s.status
+        tree = obj.data.materials[0].node_tree
+        shader = next(n for n in tree.nodes if n.bl_idname == "ShaderNodeVolumePrincipled")
+        ao = next(n for n in tree.nodes
+                  if n.bl_idname == "ShaderNodeAttribute" and n.attribute_name == "ao")
+        result["ao_to"] = [l.to_node.bl_idname for l in ao.outputs["Fac"].links]
+        result["color_from"] = shader.inputs["Color"].links[0].from_node.bl_idname
+        emission = shader.inputs["Emission Strength"].links
+        result["emission_from"] = emission[0].from_node.bl_idname if emission else None
+        result["factor"] = tree.nodes["Occlux AO factor"].outputs[0].default_value
+        s.ao_factor = 0.25  # the panel's slider moves the material's factor
+        result["factor_after"] = tree.nodes["Occlux AO factor"].outputs[0].default_value
+        """,
+    )
+    assert result["op"] == ["FINISHED"], output
+    assert result["grids"] == ["ao", "density", "value"]
+    assert result["filepath"] == str(out / f"{path.stem}-ao.vdb")
+    assert sorted(p.name for p in out.iterdir()) == [f"{path.stem}-ao.vdb"], "no temporary left"
+    assert "AO" in result["status"] and "radius 4" in result["status"]
+    if shading == "ALBEDO":
+        assert result["ao_to"] == ["ShaderNodeMix"] and result["emission_from"] is None
+        assert result["color_from"] == "ShaderNodeMix"
+    else:
+        assert result["ao_to"] == ["ShaderNodeMath"] and result["emission_from"] == "ShaderNodeMath"
+        assert result["color_from"] == "ShaderNodeValToRGB"
+    assert result["factor"] == pytest.approx(0.7) and result["factor_after"] == pytest.approx(0.25)
+
+    # The `ao` grid is what occlux.ao_volume computes for the fitted volume (2 units wide).
+    volume = occlux.Volume.load(path)
+    scale = 2.0 / max(np.array(volume.dims) * np.array(volume.spacing))
+    fitted = occlux.Volume(volume.values, spacing=tuple(np.array(volume.spacing) * scale))
+    scene = occlux.Scene.from_toml(
+        '[volume]\nphantom = "sphere"\n[camera]\nposition = [0, -4, 0]\n'
+    )
+    scene.classification = occlux.Classification.preset(preset)
+    want = occlux.ao_volume(scene, method=method, radius=4, device="cpu", volume=fitted)["ao"]
+    grid = openvdb.read(str(out / f"{path.stem}-ao.vdb"), "ao")
+    got = np.zeros(volume.dims, dtype=np.float32)  # x, y, z
+    grid.copyToArray(got, ijk=(0, 0, 0))
+    np.testing.assert_allclose(got.transpose(2, 1, 0), want.values, atol=1e-6)
+    assert 0.0 <= want.values.min() < 0.9 and want.values.max() <= 1.0, "some voxels occluded"
+    assert grid.transform.voxelSize()[0] == pytest.approx(scale * volume.spacing[0], rel=1e-5)
