@@ -156,8 +156,40 @@ def set_status(context: bpy.types.Context, text: str, fraction: float = 0.0) -> 
                 area.tag_redraw()
 
 
+class BackgroundRun:
+    """A job's work on its own thread. The core releases the GIL while it computes, so
+    Blender's main thread stays free to poll `running` from a modal timer."""
+
+    def __init__(self, work: Callable[[JobProgress], Any], progress: JobProgress) -> None:
+        self.progress = progress
+        self.result: Any = None
+        self.error: BaseException | None = None
+        self.thread = threading.Thread(target=self._run, args=(work,), daemon=True)
+        ACTIVE.add(self)
+        self.thread.start()
+
+    def _run(self, work: Callable[[JobProgress], Any]) -> None:
+        try:
+            self.result = work(self.progress)
+        except BaseException as e:  # handed to the main thread, which reports it
+            self.error = e
+
+    @property
+    def running(self) -> bool:
+        if self.thread.is_alive():
+            return True
+        ACTIVE.discard(self)
+        return False
+
+
+# Runs in flight: unregistering the add-on cancels them, so no thread outlives it.
+ACTIVE: set[BackgroundRun] = set()
+
+
 class OccluxJob:
-    """The frame of a long operator (see the module's docstring)."""
+    """The frame of a long operator (see the module's docstring). From the UI (invoke) the work
+    runs on a thread while a modal timer shows its progress and ESC cancels it; from scripts
+    (execute) it runs on the calling thread."""
 
     cancel_after: IntProperty(
         name="Cancel after",
@@ -188,6 +220,46 @@ class OccluxJob:
         except self.errors() as e:
             return self.failed(context, e, progress)
         return self.succeeded(context, result)
+
+    @classmethod
+    def poll(cls, context: bpy.types.Context) -> bool:
+        return not any(run.running for run in list(ACTIVE))  # one job at a time
+
+    def invoke(self, context: bpy.types.Context, event: bpy.types.Event) -> set[str]:
+        if context.window is None:  # no window to poll from (headless): run it here
+            return self.execute(context)
+        try:
+            work = self.prepare(context)
+        except self.errors() as e:
+            return self.failed(context, e, None)
+        wm = context.window_manager
+        self._run = BackgroundRun(work, JobProgress(self.cancel_after))
+        self._timer = wm.event_timer_add(0.1, window=context.window)
+        wm.progress_begin(0, 1)
+        wm.modal_handler_add(self)
+        set_status(context, f"{self.bl_label}: running (Esc cancels)")
+        return {"RUNNING_MODAL"}
+
+    def modal(self, context: bpy.types.Context, event: bpy.types.Event) -> set[str]:
+        run = self._run
+        if event.type == "ESC" and event.value == "PRESS":
+            run.progress.cancel.set()  # the core stops at its next progress report
+            set_status(context, f"{self.bl_label}: cancelling", run.progress.fraction)
+            return {"RUNNING_MODAL"}
+        if event.type != "TIMER":
+            return {"PASS_THROUGH"}
+        wm = context.window_manager
+        if run.running:
+            wm.progress_update(run.progress.fraction)
+            set_status(context, f"{self.bl_label}: running (Esc cancels)", run.progress.fraction)
+            return {"RUNNING_MODAL"}
+        wm.event_timer_remove(self._timer)
+        wm.progress_end()
+        if run.error is None:
+            return self.succeeded(context, run.result)
+        if isinstance(run.error, self.errors()):
+            return self.failed(context, run.error, run.progress)
+        raise run.error
 
     def succeeded(self, context: bpy.types.Context, result: Any) -> set[str]:
         try:
@@ -364,5 +436,9 @@ def register() -> None:
 
 
 def unregister() -> None:
+    for run in list(ACTIVE):
+        run.progress.cancel.set()
+        run.thread.join()
+    ACTIVE.clear()
     for cls in reversed(CLASSES):
         bpy.utils.unregister_class(cls)

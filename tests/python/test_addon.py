@@ -275,3 +275,63 @@ def test_compute_ao_adds_a_volume_shaded_by_its_ao_grid(
     np.testing.assert_allclose(got.transpose(2, 1, 0), want.values, atol=1e-6)
     assert 0.0 <= want.values.min() < 0.9 and want.values.max() <= 1.0, "some voxels occluded"
     assert grid.transform.voxelSize()[0] == pytest.approx(scale * volume.spacing[0], rel=1e-5)
+
+
+def test_jobs_run_on_a_thread_and_cancel_without_adding_anything(
+    extension: Path, tmp_path: Path
+) -> None:
+    out = tmp_path / "out"
+    result, output = blender(
+        extension,
+        tmp_path / "user",
+        f"""
+        import threading, time
+        ops = sys.modules["bl_ext.user_default.occlux.operators"]
+        s = bpy.context.scene.occlux
+        s.volume_path = {str(SHARED / "tooth.nrrd")!r}
+        s.output_dir = {str(out) + "/"!r}
+        s.ao_method, s.ao_radius, s.device = "exact", 6, "cpu"
+        before = len(bpy.data.objects), len(bpy.data.volumes), len(bpy.data.materials)
+        # ESC as the modal operator sees it: the progress callback answers False after two
+        # reports, the core raises "cancelled", the operator reports and adds nothing.
+        result["cancelled"] = attempt(bpy.ops.occlux.compute_ao, cancel_after=2)
+        result["status"] = s.status
+        result["unchanged"] = before == (
+            len(bpy.data.objects), len(bpy.data.volumes), len(bpy.data.materials))
+        # Without a window (headless) invoking runs the job synchronously.
+        result["invoked"] = sorted(bpy.ops.occlux.compute_ao("INVOKE_DEFAULT"))
+
+        # The modal path's thread: the main thread keeps running while the core computes,
+        # then cancels it mid-way as ESC does.
+        volume = occlux.Volume.load(s.volume_path)
+        scene = occlux.Scene.from_toml(ops.AO_SCENE)
+        progress = ops.JobProgress()
+        work = lambda p: occlux.ao_volume(
+            scene, method="exact", radius=6, device="cpu", volume=volume, progress=p)
+        run = ops.BackgroundRun(work, progress)
+        result["other_thread"] = run.thread is not threading.current_thread()
+        result["polled_while_running"] = bpy.types.OCCLUX_OT_compute_ao.poll(bpy.context)
+        polls = 0
+        while run.running:
+            polls += 1
+            if progress.fraction > 0.1:
+                progress.cancel.set()
+            time.sleep(0.01)
+        result["polls"] = polls
+        result["fraction"] = progress.fraction
+        result["error"] = repr(run.error)
+        result["active"] = len(ops.ACTIVE)
+        result["polled_after"] = bpy.types.OCCLUX_OT_compute_ao.poll(bpy.context)
+        """,
+    )
+    assert result["cancelled"] == ["CANCELLED"], output
+    assert "Compute AO: cancelled, nothing was added" in result["status"]
+    assert "cancelled, nothing was added" in output, "the warning reaches the report area"
+    assert result["unchanged"], "a cancelled job adds no object, volume or material"
+    assert result["invoked"] == ["FINISHED"]
+    assert sorted(p.name for p in out.iterdir()) == ["tooth-ao.vdb"], "the cancel wrote nothing"
+    assert result["other_thread"] and result["polls"] > 1
+    assert result["polled_while_running"] is False, "one job at a time"
+    assert 0.1 < result["fraction"] < 1.0, result["fraction"]
+    assert result["error"] == "OccluxError('cancelled')"
+    assert result["active"] == 0 and result["polled_after"] is True
