@@ -8,9 +8,12 @@ in a thread); `finish` brings its result into the scene on the main thread."""
 
 from __future__ import annotations
 
+import math
 import os
+import shutil
 import tempfile
 import threading
+import time
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
@@ -20,7 +23,7 @@ import bpy
 import numpy as np
 from bpy.props import EnumProperty, IntProperty, StringProperty
 
-from . import nodes
+from . import nodes, scenes
 
 RAW_DTYPES = {
     "uint8": "<u1",
@@ -365,6 +368,114 @@ class OCCLUX_OT_compute_ao(OccluxJob, bpy.types.Operator):
         )
 
 
+@dataclass(frozen=True)
+class Reference:
+    """An Occlux reference and the scene and VDB it was made from (in a temporary folder)."""
+
+    folder: Path
+    scene: Path
+    vdb: Path
+    result: Any
+    seconds: float
+
+
+def image_size(render, longest: int) -> tuple[int, int]:
+    """`longest` pixels along the render's longer side, its aspect kept."""
+    w, h = render.resolution_x * render.pixel_aspect_x, render.resolution_y * render.pixel_aspect_y
+    scale = longest / max(w, h)
+    return max(1, round(w * scale)), max(1, round(h * scale))
+
+
+def report_dir(settings) -> Path:
+    """Beside the .blend file; the output folder for an unsaved file."""
+    return Path(bpy.path.abspath("//")) if bpy.data.filepath else output_dir(settings)
+
+
+class OCCLUX_OT_check_cycles(OccluxJob, bpy.types.Operator):
+    """Render the volume with Occlux's Monte Carlo reference and with Cycles (same camera and
+    lights), compare them pixel by pixel, and load the error map"""
+
+    bl_idname = "occlux.check_cycles"
+    bl_label = "Check Against Cycles"
+    bl_options = {"REGISTER"}
+
+    def prepare(self, context: bpy.types.Context) -> Callable[[JobProgress], Reference]:
+        import occlux
+        import occlux.cycles as oc
+
+        settings = context.scene.occlux
+        source = VolumeInput.from_settings(settings)
+        width, height = image_size(context.scene.render, settings.check_size)
+        toml = scenes.scene_toml(context, source, width, height)
+        estimator, spp = settings.check_estimator, settings.check_spp
+
+        def work(progress: JobProgress) -> Reference:
+            folder = Path(tempfile.mkdtemp(prefix="occlux-check-"))
+            try:
+                path = folder / f"{source.stem}.toml"
+                path.write_text(toml)
+                scene = occlux.Scene.load(path)
+                volume = scene.load_volume()
+                vdb = folder / f"{source.stem}.vdb"
+                write_vdb(vdb, {"value": volume})  # what the harness maps onto Cycles
+                started = time.perf_counter()
+                result = occlux.reference(
+                    scene, estimator=estimator, spp=spp, seed=oc.OCCLUX_SEED, volume=volume,
+                    progress=progress,
+                )  # fmt: skip
+            except BaseException:
+                shutil.rmtree(folder)
+                raise
+            return Reference(folder, path, vdb, result, time.perf_counter() - started)
+
+        return work
+
+    def finish(self, context: bpy.types.Context, ref: Reference) -> str:
+        # Cycles renders through bpy, which only the main thread may call: this part blocks.
+        import occlux.cycles as oc
+
+        settings = context.scene.occlux
+        estimator, spp, seeds = settings.check_estimator, settings.check_spp, settings.check_seeds
+        try:
+            scene = oc.build_scene(ref.scene, ref.vdb, estimator)
+            cycles = oc.render_scene(scene, spp, seeds)
+        finally:
+            oc._remove_previous(bpy)  # the harness's scene, objects and world
+            shutil.rmtree(ref.folder)
+        occlux_image = oc.OccluxImage(
+            np.asarray(ref.result.mean, np.float64),
+            np.asarray(ref.result.stderr, np.float64),
+            {"spp": ref.result.spp},
+            {},
+        )
+        report = oc.compare(occlux_image, cycles.mean, cycles.stderr)
+        if not (math.isfinite(report.rmse) and math.isfinite(report.rmse_over_noise)):
+            raise ValueError(f"the comparison is not finite:\n{report.table()}")
+        stem = f"{ref.scene.stem}-{estimator}"
+        extra = {
+            "source": settings.volume_path,
+            "estimator": estimator,
+            "spp": spp,
+            "occlux_seconds": ref.seconds,
+            "cycles_seconds": cycles.seconds,
+        }
+        _, png, js = oc.write_outputs(
+            report_dir(settings), stem, occlux_image, cycles, report, extra
+        )
+        image = bpy.data.images.load(str(png), check_existing=True)
+        image.reload()  # a previous check's map of the same name
+        settings.check_rmse = report.rmse
+        settings.check_rmse_over_noise = report.rmse_over_noise
+        settings.check_rms_z = report.rms_z
+        settings.check_agrees = report.agrees()
+        settings.check_report = str(js)
+        verdict = "agree within noise" if report.agrees() else "DISAGREE"
+        return (
+            f"Occlux vs Cycles ({estimator}, {spp} spp): RMSE {report.rmse:.4g}, "
+            f"{report.rmse_over_noise:.3f} x the noise, {verdict}; error map '{image.name}'"
+        )
+
+
 def add_volume_object(context: bpy.types.Context, loaded: Loaded, ao: str | None):
     """A Volume object for the VDB with the Occlux material; the previous one of that name is
     replaced. If Blender cannot read the file, nothing is added (and the file is removed)."""
@@ -427,7 +538,12 @@ class OCCLUX_OT_composite(bpy.types.Operator):
         return {"FINISHED"}
 
 
-CLASSES = (OCCLUX_OT_import_volume, OCCLUX_OT_compute_ao, OCCLUX_OT_composite)
+CLASSES = (
+    OCCLUX_OT_import_volume,
+    OCCLUX_OT_compute_ao,
+    OCCLUX_OT_check_cycles,
+    OCCLUX_OT_composite,
+)
 
 
 def register() -> None:

@@ -35,6 +35,20 @@ class VIEW3D_PT_occlux(bpy.types.Panel):
         layout.operator("occlux.compute_ao", icon="SHADING_RENDERED")
         layout.separator()
         layout.operator("occlux.composite", icon="NODE_COMPOSITING")
+        layout.separator()
+        column = layout.column(align=True)
+        column.prop(settings, "check_estimator")
+        column.prop(settings, "check_size")
+        column.prop(settings, "check_spp")
+        column.prop(settings, "check_seeds")
+        layout.operator("occlux.check_cycles", icon="RENDER_STILL")
+        if settings.check_report:
+            box = layout.box()
+            verdict = "agree within noise" if settings.check_agrees else "DISAGREE"
+            box.label(text=f"RMSE {settings.check_rmse:.4g}: {verdict}")
+            box.label(text=f"RMSE / noise {settings.check_rmse_over_noise:.3f}")
+            box.label(text=f"RMS z {settings.check_rms_z:.3f}")
+            box.label(text=settings.check_report)
         if settings.status:
             layout.separator()
             layout.progress(factor=settings.progress, text=settings.status)

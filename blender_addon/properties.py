@@ -123,6 +123,43 @@ class OccluxSettings(bpy.types.PropertyGroup):
         default=1.0,
         update=_update_ao_factor,
     )
+    check_estimator: EnumProperty(
+        name="Check lighting",
+        description="What the Cycles check renders (both renderers, same scene)",
+        items=[
+            ("ambient", "Ambient", "The world's uniform light, no bounces: volumetric AO"),
+            ("single", "Single scattering", "The sun lights, with shadows, one bounce"),
+        ],
+        default="ambient",
+    )
+    check_size: IntProperty(
+        name="Check size",
+        description="Longest side of the check's images in pixels (the render's aspect)",
+        min=8,
+        soft_max=512,
+        default=64,
+    )
+    check_spp: IntProperty(
+        name="Check samples",
+        description="Samples per pixel, for Occlux and for Cycles",
+        min=2,
+        soft_max=4096,
+        default=128,
+    )
+    check_seeds: IntProperty(
+        name="Cycles renders",
+        description="Cycles renders with distinct seeds (samples / renders each): their "
+        "spread is Cycles' standard error",
+        min=2,
+        soft_max=64,
+        default=32,
+    )
+    # The last check's figures, shown in the panel.
+    check_rmse: FloatProperty(name="RMSE", options={"SKIP_SAVE"})
+    check_rmse_over_noise: FloatProperty(name="RMSE / noise", options={"SKIP_SAVE"})
+    check_rms_z: FloatProperty(name="RMS z", options={"SKIP_SAVE"})
+    check_agrees: bpy.props.BoolProperty(name="Agree", options={"SKIP_SAVE"})
+    check_report: StringProperty(name="Check report", subtype="FILE_PATH", options={"SKIP_SAVE"})
 
     # What the running or last job says, shown in the panel (written on the main thread).
     status: StringProperty(name="Status", options={"SKIP_SAVE"})

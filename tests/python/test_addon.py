@@ -17,6 +17,7 @@ from pathlib import Path
 
 import numpy as np
 import occlux
+import occlux.cycles as oc
 import pytest
 from occlux_testing import REPO
 
@@ -72,6 +73,27 @@ def blender(extension: Path, user: Path, script: str) -> tuple[dict, str]:
     return json.loads(line[len(RESULT) :]), output
 
 
+# A camera looking at the origin from where the example scenes look, and a uniform world.
+CAMERA_AND_WORLD = """
+from mathutils import Vector
+scene = bpy.context.scene
+for o in list(bpy.data.objects):
+    bpy.data.objects.remove(o)
+camera = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))
+scene.collection.objects.link(camera)
+camera.location = (3.2, -3.2, 2.6)
+camera.rotation_mode = "QUATERNION"
+camera.rotation_quaternion = (-camera.location).to_track_quat("-Z", "Y")
+scene.camera = camera
+camera.data.lens = 80  # the volume fills most of the frame
+scene.render.resolution_x, scene.render.resolution_y = 400, 300
+scene.world = scene.world or bpy.data.worlds.new("World")
+background = next(n for n in scene.world.node_tree.nodes if n.bl_idname == "ShaderNodeBackground")
+background.inputs["Color"].default_value = (1.0, 0.9, 0.8, 1.0)
+background.inputs["Strength"].default_value = 1.0
+"""
+
+
 def phantom_npy(folder: Path) -> Path:
     path = folder / "phantom.npy"
     np.save(path, np.asarray(occlux.Volume.phantom("ct", 64).values))
@@ -83,7 +105,7 @@ def test_the_extension_installs_registers_and_reloads(extension: Path, tmp_path:
         extension,
         tmp_path,
         """
-        ops = ("import_volume", "compute_ao", "composite")
+        ops = ("import_volume", "compute_ao", "check_cycles", "composite")
         result["registered"] = [hasattr(bpy.ops.occlux, op) for op in ops]
         result["panel"] = hasattr(bpy.types, "VIEW3D_PT_occlux")
         result["settings"] = hasattr(bpy.types.Scene, "occlux")
@@ -95,7 +117,7 @@ def test_the_extension_installs_registers_and_reloads(extension: Path, tmp_path:
         result["after_reload"] = hasattr(bpy.ops.occlux, "import_volume")
         """,
     )
-    assert result["registered"] == [True, True, True] and result["panel"] and result["settings"]
+    assert result["registered"] == [True] * 4 and result["panel"] and result["settings"]
     assert result["after_disable"] is False and result["after_reload"] is True
     # The occlux package came from the wheel inside the extension, not from this checkout.
     assert str(tmp_path) in result["occlux_from"], result["occlux_from"]
@@ -335,3 +357,49 @@ def test_jobs_run_on_a_thread_and_cancel_without_adding_anything(
     assert 0.1 < result["fraction"] < 1.0, result["fraction"]
     assert result["error"] == "OccluxError('cancelled')"
     assert result["active"] == 0 and result["polled_after"] is True
+
+
+def test_check_against_cycles_agrees_and_reports_beside_the_blend_file(
+    extension: Path, tmp_path: Path
+) -> None:
+    blend = tmp_path / "project" / "scene.blend"
+    blend.parent.mkdir()
+    result, output = blender(
+        extension,
+        tmp_path / "user",
+        CAMERA_AND_WORLD
+        + f"""
+s = scene.occlux
+s.volume_path = {str(phantom_npy(tmp_path))!r}
+s.preset = "ct-soft-tissue"
+s.output_dir = {str(tmp_path / "out") + "/"!r}
+s.check_estimator, s.check_size, s.check_spp, s.check_seeds = "ambient", 48, 128, 32
+bpy.ops.wm.save_as_mainfile(filepath={str(blend)!r})
+objects = sorted(o.name for o in bpy.data.objects)
+result["op"] = list(bpy.ops.occlux.check_cycles())
+result["panel"] = [s.check_rmse, s.check_rmse_over_noise, s.check_rms_z, s.check_agrees]
+result["report"] = s.check_report
+image = bpy.data.images["phantom-ambient-zmap.png"]
+result["image_size"] = list(image.size)
+result["unchanged"] = objects == sorted(o.name for o in bpy.data.objects)
+result["scenes"] = [x.name for x in bpy.data.scenes]
+""",
+    )
+    assert result["op"] == ["FINISHED"], output
+    report_path = Path(result["report"])
+    assert report_path == blend.parent / "phantom-ambient-report.json"
+    report = json.loads(report_path.read_text())
+    assert (blend.parent / "phantom-ambient-zmap.png").is_file()
+    assert result["image_size"] == [48, 36], "the error map at the check's size, render aspect"
+    figures = [report[k] for k in ("rmse", "rmse_over_noise", "rms_z", "mean_z")]
+    assert all(np.isfinite(figures)) and report["pixels"] > 500, report
+    # The agreement criteria of tests/python/test_cycles.py.
+    assert oc.RMS_Z_RANGE[0] <= report["rms_z"] <= oc.RMS_Z_RANGE[1], report
+    assert abs(report["mean_z"]) <= oc.MAX_ABS_MEAN_Z, report
+    assert report["fraction_over_3"] <= oc.MAX_FRACTION_OVER_3, report
+    assert 0.0 < report["rmse"] and report["rmse_over_noise"] < 1.5, report
+    rmse, over_noise, rms_z, agrees = result["panel"]
+    assert rmse == pytest.approx(report["rmse"], rel=1e-5) and agrees is True
+    assert over_noise == pytest.approx(report["rmse_over_noise"], rel=1e-5)
+    assert rms_z == pytest.approx(report["rms_z"], rel=1e-5)
+    assert result["unchanged"] and result["scenes"] == ["Scene"], "the harness cleaned up"
