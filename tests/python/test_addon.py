@@ -359,8 +359,18 @@ def test_jobs_run_on_a_thread_and_cancel_without_adding_anything(
     assert result["active"] == 0 and result["polled_after"] is True
 
 
+SUN = """
+sun = bpy.data.objects.new("Sun", bpy.data.lights.new("Sun", "SUN"))
+scene.collection.objects.link(sun)
+sun.data.energy, sun.data.color, sun.data.angle = 3.0, (1.0, 0.95, 0.9), 0.0
+sun.rotation_mode = "QUATERNION"
+sun.rotation_quaternion = Vector((-0.3, -1.0, 1.2)).to_track_quat("Z", "Y")
+"""
+
+
+@pytest.mark.parametrize("estimator", ["ambient", "single"])
 def test_check_against_cycles_agrees_and_reports_beside_the_blend_file(
-    extension: Path, tmp_path: Path
+    extension: Path, tmp_path: Path, estimator: str
 ) -> None:
     blend = tmp_path / "project" / "scene.blend"
     blend.parent.mkdir()
@@ -368,18 +378,19 @@ def test_check_against_cycles_agrees_and_reports_beside_the_blend_file(
         extension,
         tmp_path / "user",
         CAMERA_AND_WORLD
+        + (SUN if estimator == "single" else "")
         + f"""
 s = scene.occlux
 s.volume_path = {str(phantom_npy(tmp_path))!r}
 s.preset = "ct-soft-tissue"
 s.output_dir = {str(tmp_path / "out") + "/"!r}
-s.check_estimator, s.check_size, s.check_spp, s.check_seeds = "ambient", 48, 128, 32
+s.check_estimator, s.check_size, s.check_spp, s.check_seeds = {estimator!r}, 48, 128, 32
 bpy.ops.wm.save_as_mainfile(filepath={str(blend)!r})
 objects = sorted(o.name for o in bpy.data.objects)
 result["op"] = list(bpy.ops.occlux.check_cycles())
 result["panel"] = [s.check_rmse, s.check_rmse_over_noise, s.check_rms_z, s.check_agrees]
 result["report"] = s.check_report
-image = bpy.data.images["phantom-ambient-zmap.png"]
+image = bpy.data.images["phantom-{estimator}-zmap.png"]
 result["image_size"] = list(image.size)
 result["unchanged"] = objects == sorted(o.name for o in bpy.data.objects)
 result["scenes"] = [x.name for x in bpy.data.scenes]
@@ -387,9 +398,9 @@ result["scenes"] = [x.name for x in bpy.data.scenes]
     )
     assert result["op"] == ["FINISHED"], output
     report_path = Path(result["report"])
-    assert report_path == blend.parent / "phantom-ambient-report.json"
+    assert report_path == blend.parent / f"phantom-{estimator}-report.json"
     report = json.loads(report_path.read_text())
-    assert (blend.parent / "phantom-ambient-zmap.png").is_file()
+    assert (blend.parent / f"phantom-{estimator}-zmap.png").is_file()
     assert result["image_size"] == [48, 36], "the error map at the check's size, render aspect"
     figures = [report[k] for k in ("rmse", "rmse_over_noise", "rms_z", "mean_z")]
     assert all(np.isfinite(figures)) and report["pixels"] > 500, report
