@@ -8,9 +8,11 @@ in a thread); `finish` brings its result into the scene on the main thread."""
 
 from __future__ import annotations
 
+import gzip
 import math
 import os
 import shutil
+import struct
 import tempfile
 import threading
 import time
@@ -50,6 +52,47 @@ def output_dir(settings) -> Path:
     return Path(bpy.path.abspath(raw))
 
 
+def header_dims(path: Path, raw_dims: tuple[int, int, int]) -> tuple[int, ...] | None:
+    """The voxel counts a volume file declares, read from its header without loading it; None
+    where the header says nothing dense (OpenVDB: sparse, the core checks it while loading) or
+    the format is unknown (the loader reports it)."""
+    name = path.name.lower()
+    if name.endswith(".raw"):
+        return raw_dims
+    if name.endswith((".nrrd", ".nhdr")):
+        with path.open("rb") as f:
+            header = f.read(1 << 16).split(b"\n\n")[0].decode("latin-1")
+        for line in header.splitlines():
+            if line.lower().startswith("sizes:"):
+                return tuple(int(n) for n in line.split(":", 1)[1].split())
+        raise ValueError(f"{path}: the NRRD header has no 'sizes' field")
+    if name.endswith(".npy"):
+        return np.load(path, mmap_mode="r").shape  # maps the file; reads only the header
+    if name.endswith((".nii", ".nii.gz")):
+        opener = gzip.open if name.endswith(".gz") else open
+        with opener(path, "rb") as f:
+            header = f.read(348)
+        # NIfTI-1: sizeof_hdr = 348 at 0 gives the byte order; dim[0..7] int16 at 40.
+        order = "<" if struct.unpack("<i", header[:4])[0] == 348 else ">"
+        dim = struct.unpack(f"{order}8h", header[40:56])
+        return dim[1 : 1 + max(0, min(dim[0], 7))]
+    return None
+
+
+def check_budget(path: Path, raw_dims: tuple[int, int, int], budget_mb: int) -> None:
+    """Refuses a volume whose float32 copy (what the core holds) exceeds the memory budget,
+    before anything is loaded."""
+    dims = header_dims(path, raw_dims)
+    if dims is None:
+        return
+    need = math.prod(dims) * 4
+    if need > budget_mb * (1 << 20):
+        raise ValueError(
+            f"{path.name}: {' x '.join(map(str, dims))} voxels need {need / (1 << 20):.0f} MB "
+            f"as float32, over the memory budget of {budget_mb} MB (Occlux panel)"
+        )
+
+
 @dataclass(frozen=True)
 class VolumeInput:
     """The volume settings, read on the main thread so that the work needs no Blender data."""
@@ -66,6 +109,7 @@ class VolumeInput:
         path = Path(bpy.path.abspath(settings.volume_path))
         if not settings.volume_path or not path.is_file():
             raise FileNotFoundError(f"no volume file at '{path}'")
+        check_budget(path, tuple(settings.raw_dims), settings.memory_budget_mb)
         return VolumeInput(
             path,
             settings.volume_path,

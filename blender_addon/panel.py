@@ -24,6 +24,7 @@ class VIEW3D_PT_occlux(bpy.types.Panel):
         column.prop(settings, "density_scale")
         column.prop(settings, "fit")
         column.prop(settings, "output_dir")
+        column.prop(settings, "memory_budget_mb")
         column.prop(settings, "device")
         layout.operator("occlux.import_volume", icon="VOLUME_DATA")
         layout.separator()

@@ -83,6 +83,13 @@ class OccluxSettings(bpy.types.PropertyGroup):
         subtype="DIR_PATH",
         default="//occlux/",
     )
+    memory_budget_mb: IntProperty(
+        name="Memory budget (MB)",
+        description="Refuse volumes whose float32 copy (voxels x 4 bytes, from the file's "
+        "header) is larger, before loading them",
+        min=1,
+        default=2048,
+    )
     device: EnumProperty(
         name="Device",
         items=[

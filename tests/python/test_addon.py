@@ -165,35 +165,72 @@ def test_load_volume_adds_a_classified_volume_object(
 
 
 def test_bad_input_reports_an_error_and_adds_nothing(extension: Path, tmp_path: Path) -> None:
+    """Every volume operator, given a missing file, an unsupported format, a volume over the
+    memory budget (refused from its header: the file holds no voxels), a short raw file, no
+    camera, or cancelled mid-way: a clear message, and no new data-blocks or files."""
     (tmp_path / "notes.txt").write_text("not a volume")
     (tmp_path / "short.raw").write_bytes(bytes(100))
+    (tmp_path / "huge.nrrd").write_text(
+        "NRRD0004\ntype: float\ndimension: 3\nsizes: 4096 4096 4096\nencoding: raw\n\n"
+    )
+    out = tmp_path / "out"
     result, output = blender(
         extension,
         tmp_path / "user",
-        f"""
-        s = bpy.context.scene.occlux
-        s.output_dir = {str(tmp_path / "out") + "/"!r}
-        before = len(bpy.data.objects), len(bpy.data.volumes), len(bpy.data.materials)
-        outcomes = []
-        for path in ({str(tmp_path / "missing.nrrd")!r}, {str(tmp_path / "notes.txt")!r},
-                     {str(tmp_path / "short.raw")!r}):
-            s.volume_path = path
-            outcomes.append(attempt(bpy.ops.occlux.import_volume))
-        after = len(bpy.data.objects), len(bpy.data.volumes), len(bpy.data.materials)
-        result["outcomes"] = outcomes
-        result["unchanged"] = before == after
-        x = {str(tmp_path / "x.exr")!r}
-        result["composite"] = attempt(bpy.ops.occlux.composite, filepath=x)
-        result["groups"] = len(bpy.data.node_groups)
-        """,
+        CAMERA_AND_WORLD
+        + f"""
+import glob, tempfile
+s = scene.occlux
+s.output_dir = {str(out) + "/"!r}
+KINDS = ("objects", "volumes", "materials", "images", "node_groups", "scenes", "worlds",
+         "cameras", "lights")
+def counts():
+    return [len(getattr(bpy.data, kind)) for kind in KINDS]
+checks = lambda: set(glob.glob(tempfile.gettempdir() + "/occlux-check-*"))
+before, checks_before = counts(), checks()
+outcomes = {{}}
+for op in ("import_volume", "compute_ao", "check_cycles"):
+    for case, path in (("missing", {str(tmp_path / "missing.nrrd")!r}),
+                       ("unsupported", {str(tmp_path / "notes.txt")!r}),
+                       ("short", {str(tmp_path / "short.raw")!r}),
+                       ("huge", {str(tmp_path / "huge.nrrd")!r})):
+        s.volume_path = path
+        outcomes[op + " " + case] = attempt(getattr(bpy.ops.occlux, op))
+s.volume_path = {str(SHARED / "tooth.nrrd")!r}
+s.memory_budget_mb = 5  # the tooth needs 5.9 MB as float32
+outcomes["budget"] = attempt(bpy.ops.occlux.compute_ao)
+s.memory_budget_mb = 2048
+s.ao_method, s.ao_radius, s.device = "exact", 4, "cpu"
+for op in ("compute_ao", "check_cycles"):
+    outcomes[op + " cancel"] = [attempt(getattr(bpy.ops.occlux, op), cancel_after=2), s.status]
+scene.camera = None
+outcomes["no camera"] = attempt(bpy.ops.occlux.check_cycles)
+result["outcomes"] = outcomes
+result["unchanged"] = before == counts()
+result["check_folders_left"] = sorted(checks() - checks_before)
+x = {str(tmp_path / "x.exr")!r}
+result["composite"] = attempt(bpy.ops.occlux.composite, filepath=x)
+result["groups"] = len(bpy.data.node_groups)
+""",
     )
-    missing, unsupported, short = result["outcomes"]
-    assert "no volume file" in missing and "missing.nrrd" in missing
-    assert "notes.txt" in unsupported, unsupported
-    assert "short.raw holds 100 bytes" in short, short
+    outcomes = result["outcomes"]
+    for op in ("import_volume", "compute_ao", "check_cycles"):
+        missing, unsupported = outcomes[f"{op} missing"], outcomes[f"{op} unsupported"]
+        assert "no volume file" in missing and "missing.nrrd" in missing, missing
+        assert "notes.txt" in unsupported, unsupported
+        short = outcomes[f"{op} short"]  # the check's message is the core's loader's
+        assert "short.raw" in short and "100 bytes" in short and "262144" in short, short
+        huge = outcomes[f"{op} huge"]
+        assert "4096 x 4096 x 4096 voxels need 262144 MB" in huge, huge
+        assert "over the memory budget of 2048 MB" in huge, huge
+    assert "over the memory budget of 5 MB" in outcomes["budget"], outcomes["budget"]
+    for op, label in (("compute_ao", "Compute AO"), ("check_cycles", "Check Against Cycles")):
+        assert outcomes[f"{op} cancel"] == [["CANCELLED"], f"{label}: cancelled, nothing was added"]
+    assert "no active camera" in outcomes["no camera"], outcomes["no camera"]
     assert "no EXR file" in result["composite"]
     assert result["unchanged"] and result["groups"] == 0, output
-    assert not (tmp_path / "out").exists() or not any((tmp_path / "out").iterdir())
+    assert result["check_folders_left"] == [], "the check's temporary files are removed"
+    assert not out.exists() or not any(out.iterdir()), sorted(out.iterdir())
 
 
 def test_composite_builds_the_compositor_group(extension: Path, tmp_path: Path) -> None:
