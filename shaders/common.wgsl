@@ -27,3 +27,37 @@ fn volume_gradient(
         - sample_volume(tex, samp, c - vec3<f32>(0.0, 0.0, 1.0), dims);
     return vec3<f32>(dx, dy, dz) / (2.0 * spacing);
 }
+
+// Entry and exit distances of a ray in the box [lo, hi], entry clamped to 0; x >= y when it
+// misses (camera::intersect_box).
+fn box_span(origin: vec3<f32>, dir: vec3<f32>, lo: vec3<f32>, hi: vec3<f32>) -> vec2<f32> {
+    let inv = 1.0 / dir;
+    let t0 = (lo - origin) * inv;
+    let t1 = (hi - origin) * inv;
+    let near = max(max(max(min(t0.x, t1.x), min(t0.y, t1.y)), min(t0.z, t1.z)), 0.0);
+    let far = min(min(max(t0.x, t1.x), max(t0.y, t1.y)), max(t0.z, t1.z));
+    return vec2<f32>(near, far);
+}
+
+struct CameraRay {
+    origin: vec3<f32>,
+    dir: vec3<f32>,
+};
+
+// The ray through the centre of pixel (i, j), row 0 at the top (Camera::ray). position.w: 1
+// perspective, 0 orthographic; image: half extent x, half extent y, width, height.
+fn camera_ray(
+    pixel: vec2<u32>,
+    position: vec4<f32>,
+    forward: vec3<f32>,
+    right: vec3<f32>,
+    up: vec3<f32>,
+    image: vec4<f32>,
+) -> CameraRay {
+    let sx = ((f32(pixel.x) + 0.5) / image.z * 2.0 - 1.0) * image.x;
+    let sy = (1.0 - (f32(pixel.y) + 0.5) / image.w * 2.0) * image.y;
+    if (position.w == 1.0) {
+        return CameraRay(position.xyz, normalize(forward + sx * right + sy * up));
+    }
+    return CameraRay(position.xyz + sx * right + sy * up, forward);
+}

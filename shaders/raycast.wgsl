@@ -2,6 +2,7 @@
 // src/render/raycast/cpu.rs step for step (see src/render/raycast/mod.rs for the model).
 
 //#include "common.wgsl"
+//#include "classify.wgsl"
 
 const PI: f32 = 3.14159265358979;
 const BACKGROUND_DEPTH: f32 = 1.0e10;
@@ -36,12 +37,6 @@ struct Params {
     band: vec4<f32>,           // first row of this dispatch, rows in it
     cells: vec4<f32>,          // occupancy cells along x, y, z; voxels per cell
     lights: array<Light, 8>,
-};
-
-struct Optical {
-    sigma_t: f32,
-    albedo: vec3<f32>,
-    emission: vec3<f32>,
 };
 
 @group(0) @binding(0) var<uniform> params: Params;
@@ -97,38 +92,8 @@ fn gradient_at(p: vec3<f32>) -> vec3<f32> {
     return volume_gradient(volume, volume_sampler, c, params.vol_dims.xyz, params.vol_spacing.xyz);
 }
 
-// Linear coordinate along a table axis of n entries: (i0, i1, fraction), as Lut::coord.
-fn lut_coord(x: f32, lo: f32, hi: f32, n: f32) -> vec3<f32> {
-    let u = clamp((x - lo) / (hi - lo) * (n - 1.0), 0.0, n - 1.0);
-    let i0 = floor(u);
-    let i1 = min(i0 + 1.0, n - 1.0);
-    return vec3<f32>(i0, i1, u - i0);
-}
-
-// Entry (i, j) of the table: two vec4s, (sigma_t, albedo) and (emission, unused).
-fn lut_entry(i: f32, j: f32, half: u32) -> vec4<f32> {
-    return lut[(u32(i) + u32(params.lut_size.x) * u32(j)) * 2u + half];
-}
-
-// Bilinear blend of one half of the four neighbouring entries (a 1D table has j0 = j1 = 0).
-fn lut_blend(cv: vec3<f32>, cg: vec3<f32>, half: u32) -> vec4<f32> {
-    let row0 = mix(lut_entry(cv.x, cg.x, half), lut_entry(cv.y, cg.x, half), cv.z);
-    if (cg.z == 0.0) {
-        return row0;
-    }
-    let row1 = mix(lut_entry(cv.x, cg.y, half), lut_entry(cv.y, cg.y, half), cv.z);
-    return mix(row0, row1, cg.z);
-}
-
 fn lookup(v: f32, g: f32) -> Optical {
-    let cv = lut_coord(v, params.lut_range.x, params.lut_range.y, params.lut_size.x);
-    var cg = vec3<f32>(0.0, 0.0, 0.0);
-    if (params.lut_range.z > 0.0) {
-        cg = lut_coord(g, 0.0, params.lut_range.z, params.lut_size.y);
-    }
-    let a = lut_blend(cv, cg, 0u);
-    let b = lut_blend(cv, cg, 1u);
-    return Optical(a.x, a.yzw, b.xyz);
+    return lut_lookup(v, g, params.lut_range, params.lut_size);
 }
 
 // Unit direction towards light l and the irradiance it delivers at p (as lights::incident).
@@ -142,13 +107,6 @@ fn incident(l: u32, p: vec3<f32>, to_light: ptr<function, vec3<f32>>) -> vec3<f3
     let r2 = max(dot(d, d), 1e-12);
     *to_light = d / sqrt(r2);
     return light.colour.xyz / r2;
-}
-
-fn emitted(o: Optical, alpha: f32, dt: f32) -> vec3<f32> {
-    if (o.sigma_t > 1e-6) {
-        return o.emission * (alpha / o.sigma_t);
-    }
-    return o.emission * dt;
 }
 
 fn in_scattered(o: Optical, p: vec3<f32>, grad: vec3<f32>, dir: vec3<f32>) -> vec3<f32> {
@@ -196,18 +154,6 @@ fn in_scattered(o: Optical, p: vec3<f32>, grad: vec3<f32>, dir: vec3<f32>) -> ve
     return o.albedo * diffuse + specular;
 }
 
-// Entry and exit distances of the ray in the volume's box; x > y when it misses.
-fn intersect_box(origin: vec3<f32>, dir: vec3<f32>) -> vec2<f32> {
-    let inv = 1.0 / dir;
-    let t0 = (params.box_lo.xyz - origin) * inv;
-    let t1 = (params.box_hi.xyz - origin) * inv;
-    let lo = min(t0, t1);
-    let hi = max(t0, t1);
-    let near = max(max(max(lo.x, lo.y), lo.z), 0.0);
-    let far = min(min(hi.x, hi.y), hi.z);
-    return vec2<f32>(near, far);
-}
-
 @compute @workgroup_size(8, 8, 1)
 fn main(@builtin(global_invocation_id) id: vec3<u32>) {
     let width = u32(params.image.z);
@@ -216,17 +162,18 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
         return;
     }
     let out_index = id.x + width * id.y;
-    let sx = ((f32(id.x) + 0.5) / params.image.z * 2.0 - 1.0) * params.image.x;
-    let sy = (1.0 - (f32(row) + 0.5) / params.image.w * 2.0) * params.image.y;
-    var origin = params.cam_position.xyz;
-    var dir = params.cam_forward.xyz;
-    if (params.cam_position.w == 1.0) {
-        dir = normalize(params.cam_forward.xyz + sx * params.cam_right.xyz + sy * params.cam_up.xyz);
-    } else {
-        origin = origin + sx * params.cam_right.xyz + sy * params.cam_up.xyz;
-    }
+    let ray = camera_ray(
+        vec2<u32>(id.x, row),
+        params.cam_position,
+        params.cam_forward.xyz,
+        params.cam_right.xyz,
+        params.cam_up.xyz,
+        params.image,
+    );
+    let origin = ray.origin;
+    let dir = ray.dir;
     let background = params.background.xyz;
-    let span = intersect_box(origin, dir);
+    let span = box_span(origin, dir, params.box_lo.xyz, params.box_hi.xyz);
     if (!(span.y > span.x)) {
         out_rgba[out_index] = vec4<f32>(background, 0.0);
         out_depth[out_index] = BACKGROUND_DEPTH;

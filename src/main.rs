@@ -4,7 +4,7 @@ use clap::{Parser, Subcommand};
 use indicatif::{ProgressBar, ProgressStyle};
 use occlux::ao::reference::{ao_reference, AoReferenceParams, AoVariant};
 use occlux::ao::vao::{self, FieldKind, ScalarField, VaoParams};
-use occlux::eval::{bench, vao_accuracy, vao_bench};
+use occlux::eval::{bench, dos_accuracy, vao_accuracy, vao_bench};
 use occlux::export::exr::Precision;
 use occlux::export::vdb::{write_vdb, Compression, VdbGrid, VdbOptions};
 use occlux::gpu::{Compute, DeviceChoice};
@@ -35,7 +35,8 @@ struct Cli {
 
 #[derive(Subcommand)]
 enum Command {
-    /// Render a scene file into OUT/ (EXR with layers beauty and depth, plus a PNG preview).
+    /// Render a scene file into OUT/ (EXR with layers beauty and depth, plus dos and occlusion
+    /// for method = "dos", and a PNG preview).
     Render {
         scene: PathBuf,
         #[arg(short, long, default_value = "occlux-out")]
@@ -89,6 +90,9 @@ enum Command {
     /// Accuracy of the fast VAO estimates against the exact count and Monte Carlo, over
     /// sampled voxels of each scene's volume; Markdown table and JSON.
     AoAccuracy(vao_accuracy::AccuracyArgs),
+    /// Directional occlusion shading against the cone-phase and ambient Monte Carlo references
+    /// (relative RMSE over the volume's pixels) for scenes x theta x n; table and JSON.
+    DosAccuracy(dos_accuracy::AccuracyArgs),
     /// Monte Carlo reference of the scene (CPU): OUT/STEM-ESTIMATOR.exr (float32 layers beauty
     /// = per-pixel mean, stderr = its standard error) and a PNG preview.
     Reference {
@@ -285,6 +289,7 @@ fn run(cli: Cli) -> occlux::Result<()> {
         Command::Bench(args) => bench::run(&args, quiet),
         Command::BenchAo(args) => vao_bench::run(&args, quiet),
         Command::AoAccuracy(args) => vao_accuracy::run(&args, quiet),
+        Command::DosAccuracy(args) => dos_accuracy::run(&args, quiet),
         Command::Reference {
             scene,
             estimator,

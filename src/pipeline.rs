@@ -10,6 +10,7 @@ use crate::export::vdb::{write_vdb, VdbGrid, VdbOptions};
 use crate::gpu::Compute;
 use crate::progress::Progress;
 use crate::render::ao_shaded::{self, View};
+use crate::render::dos::{self, DosInput};
 use crate::render::raycast::{self, RaycastInput};
 use crate::render::reference::{Estimator, ReferenceImage, ReferenceParams};
 use crate::render::RenderImage;
@@ -67,6 +68,19 @@ pub fn render(
                 ao: Some(ao),
             })
         }
+        Method::Dos(params) => {
+            let input = DosInput {
+                volume,
+                lut: &lut,
+                camera: &scene.camera,
+                lighting: &scene.lighting,
+                params,
+            };
+            Ok(Rendered {
+                image: dos::render(compute, &input, progress)?,
+                ao: None,
+            })
+        }
     }
 }
 
@@ -99,7 +113,8 @@ impl Default for OutputOptions {
     }
 }
 
-/// Writes `OUT/STEM.exr` (layers `beauty` and `depth`, camera and parameters in the header) and
+/// Writes `OUT/STEM.exr` (layers `beauty` and `depth`, plus `dos` and `occlusion` for a DOS
+/// render; camera and parameters in the header) and
 /// the preview `OUT/STEM.png`, creating `out_dir` if needed. Returns the paths written.
 pub fn write_render(
     img: &RenderImage,

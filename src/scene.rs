@@ -29,7 +29,14 @@
 //! irradiance = 3
 //!
 //! [render]
-//! method = "gradient"                          # or "unshaded", or "ao" (below)
+//! method = "gradient"                          # or "unshaded", "ao" or "dos" (below)
+//! # method = "dos"                             # directional occlusion shading (ambient lights only)
+//! # theta_deg = 50                             # cone half-angle in [0, 90)
+//! # grid = 5                                   # n x n samples on the cone base
+//! # slice_distance = 0.01                      # world units; default: the smallest voxel spacing
+//! # distance = "exact"                         # or "approximate"
+//! # formulation = "slices"                     # or "rays" (lock-step ray marching)
+//! # clip_planes = [{ point = [0, 0, 0], normal = [1, 0, 0] }]   # removes x > 0
 //! ```
 //!
 //! AO-shaded DVR (the VAO paper): `method = "ao"` computes an AO volume first, then renders
@@ -57,6 +64,7 @@ use crate::classify::{
 use crate::error::{Error, Result};
 use crate::lights::{Light, Lighting};
 use crate::render::ao_shaded::AoRenderParams;
+use crate::render::dos::{ClipPlane, ConeDistance, DosParams, Formulation};
 use crate::render::raycast::{GradientShading, RaycastParams, Shading};
 use crate::volume::{self, phantom, LoadOptions, NonFinite, RawSpec, ScalarType, Volume};
 use glam::Vec3;
@@ -96,10 +104,12 @@ pub enum Method {
     Raycast(RaycastParams),
     /// AO-shaded DVR: a VAO volume, then the ray caster shading with it.
     AoShaded(AoRenderParams),
+    /// Directional occlusion shading.
+    Dos(DosParams),
 }
 
 /// The method names a scene accepts.
-pub const METHODS: &[&str] = &["unshaded", "gradient", "ao"];
+pub const METHODS: &[&str] = &["unshaded", "gradient", "ao", "dos"];
 
 impl Scene {
     /// Reads and validates a scene file; relative volume paths are resolved against its folder.
@@ -303,8 +313,7 @@ struct RenderSection {
     #[serde(default = "default_method")]
     method: String,
     step: Option<f32>,
-    #[serde(default = "default_ert")]
-    ert_threshold: f32,
+    ert_threshold: Option<f32>,
     specular: Option<f32>,
     shininess: Option<f32>,
     normal_threshold: Option<f32>,
@@ -315,6 +324,19 @@ struct RenderSection {
     opacity_modulation: Option<bool>,
     variance_max: Option<f32>,
     direct: Option<bool>,
+    theta_deg: Option<f32>,
+    grid: Option<u32>,
+    slice_distance: Option<f32>,
+    distance: Option<String>,
+    formulation: Option<String>,
+    clip_planes: Option<Vec<ClipPlaneSection>>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct ClipPlaneSection {
+    point: [f32; 3],
+    normal: [f32; 3],
 }
 
 impl Default for RenderSection {
@@ -322,7 +344,7 @@ impl Default for RenderSection {
         Self {
             method: default_method(),
             step: None,
-            ert_threshold: default_ert(),
+            ert_threshold: None,
             specular: None,
             shininess: None,
             normal_threshold: None,
@@ -333,15 +355,18 @@ impl Default for RenderSection {
             opacity_modulation: None,
             variance_max: None,
             direct: None,
+            theta_deg: None,
+            grid: None,
+            slice_distance: None,
+            distance: None,
+            formulation: None,
+            clip_planes: None,
         }
     }
 }
 
 fn default_method() -> String {
     "gradient".into()
-}
-fn default_ert() -> f32 {
-    RaycastParams::default().ert_threshold
 }
 
 impl SceneFile {
@@ -560,12 +585,35 @@ impl LightSection {
     }
 }
 
+/// The first of `keys` that was given, as an error: it belongs to `method`.
+fn refuse_keys(keys: &[(&str, bool)], method: &str) -> Result<()> {
+    match keys.iter().find(|(_, given)| *given) {
+        Some((key, _)) => Err(Error::param(
+            format!("render.{key}"),
+            format!("only for method = \"{method}\""),
+        )),
+        None => Ok(()),
+    }
+}
+
 impl RenderSection {
     fn resolve(self) -> Result<Method> {
         let is_ao = self.method == "ao";
         if !is_ao {
             self.refuse_ao_keys()?;
         }
+        if self.method == "dos" {
+            return self.resolve_dos();
+        }
+        let dos_keys = [
+            ("theta_deg", self.theta_deg.is_some()),
+            ("grid", self.grid.is_some()),
+            ("slice_distance", self.slice_distance.is_some()),
+            ("distance", self.distance.is_some()),
+            ("formulation", self.formulation.is_some()),
+            ("clip_planes", self.clip_planes.is_some()),
+        ];
+        refuse_keys(&dos_keys, "dos")?;
         let gradient = || {
             let d = GradientShading::default();
             GradientShading {
@@ -609,7 +657,9 @@ impl RenderSection {
         let params = RaycastParams {
             shading,
             step: self.step,
-            ert_threshold: self.ert_threshold,
+            ert_threshold: self
+                .ert_threshold
+                .unwrap_or(RaycastParams::default().ert_threshold),
         };
         params.validate()?;
         if !is_ao {
@@ -657,12 +707,67 @@ impl RenderSection {
             ("variance_max", self.variance_max.is_some()),
             ("direct", self.direct.is_some()),
         ];
-        match keys.iter().find(|(_, given)| *given) {
-            Some((key, _)) => Err(Error::param(
+        refuse_keys(&keys, "ao")
+    }
+
+    fn resolve_dos(self) -> Result<Method> {
+        let raycast_keys = [
+            ("step", self.step.is_some()),
+            ("ert_threshold", self.ert_threshold.is_some()),
+            ("specular", self.specular.is_some()),
+            ("shininess", self.shininess.is_some()),
+            ("normal_threshold", self.normal_threshold.is_some()),
+        ];
+        if let Some((key, _)) = raycast_keys.iter().find(|(_, given)| *given) {
+            return Err(Error::param(
                 format!("render.{key}"),
-                "is for method = \"ao\"",
-            )),
-            None => Ok(()),
+                "not a parameter of method = \"dos\" (use slice_distance for the sampling)",
+            ));
         }
+        let distance = match self.distance.as_deref() {
+            None | Some("exact") => ConeDistance::Exact,
+            Some("approximate") => ConeDistance::Approximate,
+            Some(other) => {
+                return Err(Error::param(
+                    "render.distance",
+                    format!("must be \"exact\" or \"approximate\", got '{other}'"),
+                ))
+            }
+        };
+        let formulation = match self.formulation.as_deref() {
+            None | Some("slices") => Formulation::Slices,
+            Some("rays") => Formulation::Rays,
+            Some(other) => {
+                return Err(Error::param(
+                    "render.formulation",
+                    format!("must be \"slices\" or \"rays\", got '{other}'"),
+                ))
+            }
+        };
+        let mut clip_planes = Vec::new();
+        for (i, plane) in self.clip_planes.unwrap_or_default().into_iter().enumerate() {
+            let normal = Vec3::from(plane.normal);
+            if !normal.is_finite() || normal.length() == 0.0 {
+                return Err(Error::param(
+                    format!("render.clip_planes[{i}].normal"),
+                    "must be a finite non-zero vector",
+                ));
+            }
+            clip_planes.push(ClipPlane {
+                point: Vec3::from(plane.point),
+                normal: normal.normalize(),
+            });
+        }
+        let d = DosParams::default();
+        let params = DosParams {
+            theta_deg: self.theta_deg.unwrap_or(d.theta_deg),
+            grid: self.grid.unwrap_or(d.grid),
+            slice_distance: self.slice_distance,
+            distance,
+            formulation,
+            clip_planes,
+        };
+        params.validate()?;
+        Ok(Method::Dos(params))
     }
 }

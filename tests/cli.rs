@@ -423,3 +423,120 @@ fn ao_shaded_scenes_render_and_export_the_ao_grid() {
         assert!((got - want[0]).abs() <= 1e-3 * want[0].abs().max(1.0));
     }
 }
+
+#[test]
+fn bench_ao_times_each_radius_on_a_crop_and_refuses_bad_requests() {
+    let out = tempfile::tempdir().unwrap();
+    let json = out.path().join("bench.json");
+    let engine = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../shared/data/scivis/engine.nrrd"
+    );
+    let run = occlux(&[
+        "bench-ao",
+        "--volume",
+        engine,
+        "--slices",
+        "6",
+        "--radii",
+        "2,3",
+        "--repeats",
+        "1",
+        "--device",
+        "cpu",
+        "-o",
+        json.to_str().unwrap(),
+    ]);
+    assert!(
+        run.status.success(),
+        "{}",
+        String::from_utf8_lossy(&run.stderr)
+    );
+    let report: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    assert_eq!(report["dims"], serde_json::json!([256, 256, 6]));
+    let rows = report["rows"].as_array().unwrap();
+    assert_eq!(rows.len(), 2);
+    assert_eq!(rows[0]["ratio_to_smallest_radius"], 1.0);
+    assert!(rows.iter().all(|r| r["median_ms"].as_f64().unwrap() > 0.0));
+    for (args, key) in [
+        (vec!["--slices", "0"], "--slices"),
+        (vec!["--method", "exact"], "--method"),
+        (vec!["--radii", "0"], "radius"),
+    ] {
+        let mut all = vec!["bench-ao", "--volume", engine, "--device", "cpu", "-o"];
+        let bad = out.path().join("bad.json");
+        all.push(bad.to_str().unwrap());
+        all.extend(args);
+        let run = occlux(&all);
+        let stderr = String::from_utf8_lossy(&run.stderr);
+        assert!(!run.status.success() && stderr.contains(key), "{stderr}");
+        assert!(!bad.exists());
+    }
+}
+
+#[test]
+fn render_with_method_dos_writes_dos_and_occlusion_layers() {
+    use occlux::export::exr::read_exr;
+    let dir = tempfile::tempdir().unwrap();
+    let scene_path = dir.path().join("dos.toml");
+    std::fs::write(
+        &scene_path,
+        r#"
+background = 0.1
+[volume]
+phantom = "ct"
+size = 24
+[camera]
+position = [3, -2, 1]
+target = [0, 0, 0]
+fov_deg = 40
+width = 12
+height = 10
+[[lights]]
+type = "ambient"
+radiance = 0.5
+[render]
+method = "dos"
+theta_deg = 60
+grid = 2
+"#,
+    )
+    .unwrap();
+    let out = dir.path().join("out");
+    let run = occlux(&[
+        "render",
+        scene_path.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+        "--device",
+        "cpu",
+        "--float32",
+    ]);
+    assert!(
+        run.status.success(),
+        "{}",
+        String::from_utf8_lossy(&run.stderr)
+    );
+    let scene = Scene::from_file(&scene_path).unwrap();
+    let volume = scene.load_volume().unwrap();
+    let img = pipeline::render(&scene, &volume, &Compute::Cpu, &NoProgress)
+        .unwrap()
+        .image;
+    let exr = read_exr(&out.join("dos.exr")).unwrap();
+    let dos = exr.layer("dos").expect("a dos layer");
+    let beauty = exr.layer("beauty").unwrap();
+    assert_eq!(dos.pixels, beauty.pixels);
+    let want: Vec<f32> = img.rgba.iter().flatten().copied().collect();
+    assert_eq!(dos.pixels.len(), want.len());
+    // Channels come back in the file's (sorted) order: match them by name.
+    for (c, name) in dos.channels.iter().enumerate() {
+        let k = ["R", "G", "B", "A"].iter().position(|x| x == name).unwrap();
+        for (p, got) in dos.pixels.iter().skip(c).step_by(4).enumerate() {
+            assert_eq!(*got, want[4 * p + k], "{name}[{p}]");
+        }
+    }
+    let occlusion = exr.layer("occlusion").expect("an occlusion layer");
+    assert_eq!(&occlusion.pixels, img.occlusion.as_ref().unwrap());
+    assert!(img.occlusion.unwrap().iter().any(|o| *o < 1.0));
+}

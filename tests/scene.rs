@@ -202,3 +202,55 @@ fn ao_method_reads_its_keys_and_refuses_them_elsewhere() {
         assert!(err.contains(key), "{render}: {err}");
     }
 }
+
+#[test]
+fn dos_method_takes_its_parameters() {
+    use occlux::render::dos::{ClipPlane, ConeDistance, DosParams, Formulation};
+    let text = format!(
+        "{MINIMAL}[render]\nmethod = \"dos\"\ntheta_deg = 30\ngrid = 13\nslice_distance = 0.01\n\
+         distance = \"approximate\"\nformulation = \"rays\"\nclip_planes = [{{ point = [0, 0, 1], normal = [0, 0, 2] }}]\n"
+    );
+    let scene = parse(&text).unwrap();
+    assert_eq!(
+        scene.method,
+        Method::Dos(DosParams {
+            theta_deg: 30.0,
+            grid: 13,
+            slice_distance: Some(0.01),
+            distance: ConeDistance::Approximate,
+            formulation: Formulation::Rays,
+            clip_planes: vec![ClipPlane {
+                point: Vec3::Z,
+                normal: Vec3::Z,
+            }],
+        })
+    );
+    let defaults = parse(&format!("{MINIMAL}[render]\nmethod = \"dos\"\n")).unwrap();
+    assert_eq!(defaults.method, Method::Dos(DosParams::default()));
+}
+
+#[test]
+fn dos_errors_name_the_key() {
+    for (tail, key) in [
+        ("method = \"dos\"\ntheta_deg = 90", "render.theta_deg"),
+        ("method = \"dos\"\ngrid = 0", "render.grid"),
+        (
+            "method = \"dos\"\nslice_distance = -1",
+            "render.slice_distance",
+        ),
+        ("method = \"dos\"\ndistance = \"near\"", "render.distance"),
+        ("method = \"dos\"\nstep = 0.1", "render.step"),
+        (
+            "method = \"dos\"\nformulation = \"cones\"",
+            "render.formulation",
+        ),
+        (
+            "method = \"dos\"\nclip_planes = [{ point = [0, 0, 0], normal = [0, 0, 0] }]",
+            "render.clip_planes[0].normal",
+        ),
+        ("method = \"gradient\"\ntheta_deg = 30", "render.theta_deg"),
+    ] {
+        let err = error_of(&format!("{MINIMAL}[render]\n{tail}\n"));
+        assert!(err.contains(key), "{tail}: {err}");
+    }
+}

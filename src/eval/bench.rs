@@ -1,11 +1,15 @@
-//! `occlux bench`: times the baseline ray caster (unshaded and gradient DVR) on the CPU and the
-//! GPU at several image sizes on one volume: the median of repeats after a warm-up render,
-//! printed as a table and written as JSON.
+//! `occlux bench`: times the baseline ray caster (unshaded and gradient DVR) and directional
+//! occlusion shading (n = 2, 5, 13; theta 50 degrees, a slice per voxel, ambient light only)
+//! on the CPU and the GPU at several image sizes on one volume: the median of repeats after a
+//! warm-up render, printed as a table with each method's time over gradient DVR's on the same
+//! device and size, and written as JSON.
 
 use crate::error::{Error, Result};
+use crate::eval::dos_accuracy::ambient_only;
 use crate::export::atomic::write_bytes_atomic;
 use crate::gpu::{Compute, DeviceChoice};
 use crate::progress::NoProgress;
+use crate::render::dos::{self, DosInput, DosParams};
 use crate::render::raycast::{cpu, gpu, GradientShading, RaycastInput, RaycastParams, Shading};
 use crate::scene::{Scene, SourceKind};
 use serde::Serialize;
@@ -44,7 +48,12 @@ pub struct BenchRow {
     pub min_ms: f64,
     pub max_ms: f64,
     pub repeats: usize,
+    /// Median time over gradient DVR's on the same device and size.
+    pub ratio_to_gradient: f64,
 }
+
+/// DOS grids timed, with their method names.
+const DOS_GRIDS: [(u32, &str); 3] = [(2, "dos-n2"), (5, "dos-n5"), (13, "dos-n13")];
 
 #[derive(Serialize)]
 struct BenchReport<'a> {
@@ -66,6 +75,8 @@ pub fn run(args: &BenchArgs, quiet: bool) -> Result<()> {
     scene.volume.kind = SourceKind::File(args.volume.clone());
     let volume = scene.load_volume()?;
     let lut = scene.classification.bake(&volume);
+    let mut dos_scene = scene.clone();
+    ambient_only(&mut dos_scene);
     let devices = devices(args.device, quiet)?;
     let methods = [
         ("unshaded", Shading::Unshaded),
@@ -94,6 +105,7 @@ pub fn run(args: &BenchArgs, quiet: bool) -> Result<()> {
             let mut camera = scene.camera;
             camera.width = size;
             camera.height = size;
+            let mut times: Vec<(&'static str, Vec<f64>)> = vec![];
             for (name, shading) in methods {
                 let params = RaycastParams {
                     shading,
@@ -109,11 +121,37 @@ pub fn run(args: &BenchArgs, quiet: bool) -> Result<()> {
                 };
                 let render_once = || match &uploaded {
                     Some((ctx, uploaded)) => {
-                        gpu::render_uploaded(ctx, uploaded, &input, &NoProgress)
+                        gpu::render_uploaded(ctx, uploaded, &input, &NoProgress).map(drop)
                     }
-                    None => cpu::render(&input, &NoProgress),
+                    None => cpu::render(&input, &NoProgress).map(drop),
                 };
-                let times = timed(args.repeats, render_once)?;
+                times.push((name, timed(args.repeats, render_once)?));
+            }
+            for (grid, name) in DOS_GRIDS {
+                let params = DosParams {
+                    grid,
+                    ..DosParams::default()
+                };
+                let input = DosInput {
+                    volume: &volume,
+                    lut: &lut,
+                    camera: &camera,
+                    lighting: &dos_scene.lighting,
+                    params: &params,
+                };
+                let render_once = || match &uploaded {
+                    Some((ctx, uploaded)) => {
+                        dos::gpu::render_uploaded(ctx, uploaded, &input, &NoProgress).map(drop)
+                    }
+                    None => dos::cpu::render(&input, &NoProgress).map(drop),
+                };
+                times.push((name, timed(args.repeats, render_once)?));
+            }
+            let gradient = times
+                .iter()
+                .find(|(name, _)| *name == "gradient")
+                .map_or(f64::NAN, |(_, t)| median(t));
+            for (name, times) in times {
                 let row = BenchRow {
                     method: name,
                     device: compute.describe(),
@@ -122,11 +160,18 @@ pub fn run(args: &BenchArgs, quiet: bool) -> Result<()> {
                     min_ms: times[0],
                     max_ms: times[times.len() - 1],
                     repeats: args.repeats,
+                    ratio_to_gradient: median(&times) / gradient,
                 };
                 if !quiet {
                     println!(
-                        "{:<9} {:>5}^2  {:>10.1} ms (min {:.1}, max {:.1})  {}",
-                        row.method, row.size, row.median_ms, row.min_ms, row.max_ms, row.device
+                        "{:<9} {:>5}^2  {:>10.1} ms (min {:.1}, max {:.1})  {:>6.2}x gradient  {}",
+                        row.method,
+                        row.size,
+                        row.median_ms,
+                        row.min_ms,
+                        row.max_ms,
+                        row.ratio_to_gradient,
+                        row.device
                     );
                 }
                 rows.push(row);

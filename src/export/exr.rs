@@ -52,20 +52,33 @@ impl ExrImage {
     }
 }
 
-/// The layers of a render: `beauty` (R, G, B, A) and `depth` (Z).
+/// The layers of a render: `beauty` (R, G, B, A) and `depth` (Z); a DOS render adds `dos`
+/// (R, G, B, A) and `occlusion` (Y).
 pub fn render_layers(img: &RenderImage) -> Vec<ExrLayer> {
-    vec![
-        ExrLayer {
-            name: "beauty".into(),
-            channels: ["R", "G", "B", "A"].map(String::from).to_vec(),
-            pixels: img.rgba.iter().flatten().copied().collect(),
-        },
+    let rgba = |name: &str| ExrLayer {
+        name: name.into(),
+        channels: ["R", "G", "B", "A"].map(String::from).to_vec(),
+        pixels: img.rgba.iter().flatten().copied().collect(),
+    };
+    let mut layers = vec![
+        rgba("beauty"),
         ExrLayer {
             name: "depth".into(),
             channels: vec!["Z".into()],
             pixels: img.depth.clone(),
         },
-    ]
+    ];
+    // An occlusion-shaded render (DOS) also carries its shaded image under the method's name,
+    // for compositing next to other methods' layers, and its occlusion factor.
+    if let Some(occlusion) = &img.occlusion {
+        layers.push(rgba("dos"));
+        layers.push(ExrLayer {
+            name: "occlusion".into(),
+            channels: vec!["Y".into()],
+            pixels: occlusion.clone(),
+        });
+    }
+    layers
 }
 
 /// Writes the layers atomically. Rejects NaN or infinite samples, naming layer, channel and
@@ -235,6 +248,7 @@ mod tests {
                 .map(|i| [i as f32 * 0.1, 0.5, 2.0, 1.0 - i as f32 * 0.2])
                 .collect(),
             depth: vec![1.5, 2.25, crate::render::BACKGROUND_DEPTH, 3.0, 4.0, 5.0],
+            occlusion: None,
         };
         render_layers(&img)
     }

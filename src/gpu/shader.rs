@@ -12,6 +12,8 @@ use super::context::GpuContext;
 /// Every shader in shaders/, by file name.
 const SOURCES: &[(&str, &str)] = &[
     ("common.wgsl", include_str!("../../shaders/common.wgsl")),
+    ("classify.wgsl", include_str!("../../shaders/classify.wgsl")),
+    ("dos.wgsl", include_str!("../../shaders/dos.wgsl")),
     (
         "sample_volume.wgsl",
         include_str!("../../shaders/sample_volume.wgsl"),

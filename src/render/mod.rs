@@ -1,6 +1,7 @@
 //! Renderers. Each method has a CPU twin and a GPU twin that give the same image.
 
 pub mod ao_shaded;
+pub mod dos;
 pub mod occupancy;
 pub mod raycast;
 pub mod reference;
@@ -19,6 +20,9 @@ pub struct RenderImage {
     /// Distance along the ray from the eye to where accumulated opacity crosses 0.5, or
     /// [`BACKGROUND_DEPTH`].
     pub depth: Vec<f32>,
+    /// Methods that shade by occlusion (DOS): the occlusion factor (1 = unoccluded) at the
+    /// depth, 1 where the opacity never reaches 0.5.
+    pub occlusion: Option<Vec<f32>>,
 }
 
 impl RenderImage {
@@ -29,6 +33,7 @@ impl RenderImage {
             height,
             rgba: vec![[0.0; 4]; n],
             depth: vec![BACKGROUND_DEPTH; n],
+            occlusion: None,
         }
     }
 }

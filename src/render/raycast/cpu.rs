@@ -118,7 +118,7 @@ pub fn march(
 
 /// Emission integrated over a step of opacity `alpha` and length `dt`.
 #[inline]
-fn emitted(optical: &Optical, alpha: f32, dt: f32) -> Vec3 {
+pub(crate) fn emitted(optical: &Optical, alpha: f32, dt: f32) -> Vec3 {
     if optical.sigma_t > 1e-6 {
         optical.emission * (alpha / optical.sigma_t)
     } else {

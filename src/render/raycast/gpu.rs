@@ -2,6 +2,7 @@
 //! bands of rows so that each band's output fits one storage binding and progress is reported.
 
 use super::{RaycastInput, RaycastSetup, Shading};
+use crate::camera::Camera;
 use crate::classify::Lut;
 use crate::error::Result;
 use crate::gpu::{buffer, shader, GpuContext, VolumeTexture};
@@ -27,10 +28,11 @@ struct GpuLight {
     colour: Vec4,
 }
 
-/// The shader's `Params` uniform, field for field.
+/// The camera and the volume's placement, as the first fields of the kernels' `Params`
+/// uniforms (shaders/raycast.wgsl, shaders/dos.wgsl).
 #[repr(C)]
 #[derive(Clone, Copy, Pod, Zeroable)]
-struct Params {
+pub(crate) struct ViewUniform {
     cam_position: Vec4,
     cam_forward: Vec4,
     cam_right: Vec4,
@@ -41,6 +43,45 @@ struct Params {
     vol_origin: Vec4,
     vol_spacing: Vec4,
     vol_dims: Vec4,
+}
+
+impl ViewUniform {
+    pub(crate) fn new(cam: &Camera, volume: &Volume) -> Self {
+        let (hx, hy) = cam.half_extent();
+        let (lo, hi) = volume.bounds();
+        let [nx, ny, nz] = volume.dims();
+        Self {
+            cam_position: cam
+                .position
+                .extend(if cam.is_perspective() { 1.0 } else { 0.0 }),
+            cam_forward: cam.forward.extend(0.0),
+            cam_right: cam.right.extend(0.0),
+            cam_up: cam.up.extend(0.0),
+            image: Vec4::new(hx, hy, cam.width as f32, cam.height as f32),
+            box_lo: lo.extend(0.0),
+            box_hi: hi.extend(0.0),
+            vol_origin: volume.origin().extend(0.0),
+            vol_spacing: volume.spacing().extend(0.0),
+            vol_dims: Vec3::new(nx as f32, ny as f32, nz as f32).extend(0.0),
+        }
+    }
+}
+
+/// The table's `lut_range` and `lut_size` fields (shaders/classify.wgsl's `lut_lookup`).
+pub(crate) fn lut_uniform(lut: &Lut) -> [Vec4; 2] {
+    let [vmin, vmax] = lut.value_range();
+    let [nv, ng] = lut.size();
+    [
+        Vec4::new(vmin, vmax, lut.gradient_max().unwrap_or(0.0), 0.0),
+        Vec4::new(nv as f32, ng as f32, 0.0, 0.0),
+    ]
+}
+
+/// The shader's `Params` uniform, field for field.
+#[repr(C)]
+#[derive(Clone, Copy, Pod, Zeroable)]
+struct Params {
+    view: ViewUniform,
     ambient: Vec4,
     background: Vec4,
     lut_range: Vec4,
@@ -75,6 +116,17 @@ impl<'a> GpuVolume<'a> {
             cells: occupancy.cells(),
             occupancy_buffer: buffer::storage_buffer(ctx, "occupancy", occupancy.flags())?,
         })
+    }
+}
+
+impl GpuVolume<'_> {
+    /// The volume as a 3D texture with its linear sampler.
+    pub(crate) fn texture(&self) -> &VolumeTexture {
+        &self.texture
+    }
+    /// The classification table's storage buffer.
+    pub(crate) fn lut_buffer(&self) -> &wgpu::Buffer {
+        &self.lut_buffer
     }
 }
 
@@ -156,14 +208,7 @@ pub fn render_uploaded(
 }
 
 fn params(input: &RaycastInput, setup: &RaycastSetup, cells: [usize; 3]) -> Params {
-    let cam = input.camera;
-    let (hx, hy) = cam.half_extent();
-    let volume = input.volume;
-    let (lo, hi) = volume.bounds();
-    let [nx, ny, nz] = volume.dims();
-    let lut = input.lut;
-    let [vmin, vmax] = lut.value_range();
-    let [nv, ng] = lut.size();
+    let [lut_range, lut_size] = lut_uniform(input.lut);
     // The shader's shading codes: 0 unshaded, 1 gradient, 2 AO, 3 AO with gradient direct.
     let (shading, specular, shininess) = match input.params.shading {
         Shading::Unshaded => (0.0, 0.0, 1.0),
@@ -194,22 +239,11 @@ fn params(input: &RaycastInput, setup: &RaycastSetup, cells: [usize; 3]) -> Para
         count += 1;
     }
     Params {
-        cam_position: cam
-            .position
-            .extend(if cam.is_perspective() { 1.0 } else { 0.0 }),
-        cam_forward: cam.forward.extend(0.0),
-        cam_right: cam.right.extend(0.0),
-        cam_up: cam.up.extend(0.0),
-        image: Vec4::new(hx, hy, cam.width as f32, cam.height as f32),
-        box_lo: lo.extend(0.0),
-        box_hi: hi.extend(0.0),
-        vol_origin: volume.origin().extend(0.0),
-        vol_spacing: volume.spacing().extend(0.0),
-        vol_dims: Vec3::new(nx as f32, ny as f32, nz as f32).extend(0.0),
+        view: ViewUniform::new(input.camera, input.volume),
         ambient: input.lighting.ambient().extend(0.0),
         background: input.lighting.background.extend(0.0),
-        lut_range: Vec4::new(vmin, vmax, lut.gradient_max().unwrap_or(0.0), 0.0),
-        lut_size: Vec4::new(nv as f32, ng as f32, 0.0, 0.0),
+        lut_range,
+        lut_size,
         march: Vec4::new(
             setup.step,
             input.params.ert_threshold,

@@ -1,0 +1,485 @@
+//! Directional occlusion shading (Schott, Pegoraro, Hansen, Boulanger, Bouatouch 2009), slice
+//! based: `cpu` and `gpu` are twins that produce the same image.
+//!
+//! The light is ambient radiance L_a arriving inside a cone of half-angle theta around the
+//! direction towards the viewer (the paper's cone phase function; the Monte Carlo `Cone`
+//! reference estimates the same integral without the approximations below).
+//!
+//! Slices are planes perpendicular to the camera's forward axis, `d` apart in depth, from the
+//! nearest point of the volume's box (or the camera, when it is inside) to the farthest. Slab
+//! k lies between slices k and k + 1. Every pixel's ray is clipped to the box and to the slab;
+//! the slab is sampled at the clipped segment's midpoint (one material sample per pixel and
+//! slab, classified as the ray caster does, with clipping planes removing material).
+//!
+//! With `Formulation::Rays` (the ray-casting formulation) slab k is instead the k-th step of
+//! length d along every ray, marched in lock step from the volume's nearest distance to the
+//! camera: spherical shells around a perspective camera, the same planes for an orthographic
+//! one (so there both formulations give the same image). The cone base's pixel radius then
+//! uses the previous step's mid-distance in place of its depth.
+//!
+//! Two image-sized buffers run through the slabs front to back:
+//! - the occlusion buffer: with `V_k` the fraction of the cone's light that reaches slab k
+//!   (`V_0 = 1`) and `tau_k = sigma_t * f` the slab's extinction times the fraction `f` of its
+//!   depth inside the box, it holds per pixel the light that slab k - 1 passes on,
+//!   `W(l) = V_{k-1} exp(-tau_{k-1} l)`, for each path length l a cone sample can take. Then
+//!   (the paper's Algorithm 2) `V_k(x) = 1/n^2 sum_s W(l_s)(x + q_s)` over n x n samples q_s
+//!   on the cone's base on slab k - 1: a disc of radius `d tan(theta)` (world units),
+//!   converted to pixels at that slab's depth, which corrects the base for perspective
+//!   (Eq. 12-15: a world length w at depth z covers `w * width / (2 z tan(fov_x / 2))` pixels).
+//!   `l_s` is the exact distance `sqrt(d^2 + |q_s|^2)` or, approximated (Algorithm 3), `d` for
+//!   every sample. The buffer is read bilinearly and clamped to its edges. The grid's samples
+//!   lie on ceil(n/2) rings (below), so the exact distance takes that many values, and the
+//!   buffer holds one plane per value: exponentials per pixel and slab are that many, not n^2.
+//! - the eye buffer composites each slab front to back: with alpha = 1 - exp(-sigma_t dt) for
+//!   the clipped segment length dt, `L += T (alpha albedo L_a V_k + emission)` (albedo is
+//!   sigma_s / sigma_t, so `alpha albedo` is the paper's `sigma_s alpha` per unit extinction),
+//!   `T *= 1 - alpha`; the background adds `T L_b` at the end. Depth is where T falls through
+//!   0.5 (as the ray caster finds it) and the `occlusion` output is `V_k` there (1 where the
+//!   opacity never reaches 0.5: no occlusion).
+//!
+//! The n x n grid covers the disc through the concentric (Shirley-Chiu) map of the grid's cell
+//! centres, so every sample carries the same area; cell (i, j) lands on the ring of radius
+//! max(|2i + 1 - n|, |2j + 1 - n|) / n. Limits (documented behaviour):
+//! - theta = 0 is the line towards the viewer: V is the transmittance back along the view axis;
+//!   tan(theta) is capped at [`MAX_TAN_THETA`] (theta ~ 89.994 degrees), and the base's pixel
+//!   radius at [`MAX_RADIUS_PX`]: past them every sample off the centre lands beyond the image
+//!   and clamping to the edges decides, as it would without the caps.
+//! - samples outside the image read the edge pixel (material outside the view is not seen).
+//! - a camera inside the volume starts the slices at depth 0; the base's pixel radius uses the
+//!   previous slab's mid-depth, at least d / 2, so it stays finite.
+//! - an opaque slab (sigma_t d overflowing to infinity) passes on exp(-inf) = 0: no light.
+//! - the slice count is capped at [`MAX_SLICES`] (a clear error names `render.slice_distance`).
+//! - only ambient lights light DOS; other lights are an error naming them.
+
+pub mod cpu;
+pub mod gpu;
+
+use crate::camera::Camera;
+use crate::classify::{Lut, Optical};
+use crate::error::{Error, Result};
+use crate::lights::{Light, Lighting};
+use crate::volume::Volume;
+use glam::{Vec2, Vec3};
+
+/// How a cone sample's path through the previous slab is measured.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum ConeDistance {
+    /// sqrt(d^2 + |q|^2): the slanted path (the paper's Algorithm 2).
+    #[default]
+    Exact,
+    /// d for every sample (Algorithm 3).
+    Approximate,
+}
+
+/// How the volume is cut into slabs.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Formulation {
+    /// View-aligned planes d apart in depth (the paper's slice-based algorithm).
+    #[default]
+    Slices,
+    /// Lock-step ray marching: steps of length d along every ray.
+    Rays,
+}
+
+/// A clipping plane: material on the side the normal points to is removed, for the eye and
+/// for the occlusion (clipped material casts no occlusion).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ClipPlane {
+    pub point: Vec3,
+    /// Unit normal, pointing into the removed half-space.
+    pub normal: Vec3,
+}
+
+impl ClipPlane {
+    /// Whether `p` is removed.
+    #[inline]
+    pub fn clips(&self, p: Vec3) -> bool {
+        (p - self.point).dot(self.normal) > 0.0
+    }
+}
+
+/// Parameters of DOS.
+#[derive(Clone, Debug, PartialEq)]
+pub struct DosParams {
+    /// Cone half-angle in degrees, in [0, 90).
+    pub theta_deg: f32,
+    /// n: the cone base is sampled on an n x n grid, n in 1..=[`MAX_GRID`].
+    pub grid: u32,
+    /// Distance between slices in world units; None: the smallest voxel spacing.
+    pub slice_distance: Option<f32>,
+    pub distance: ConeDistance,
+    pub formulation: Formulation,
+    /// At most [`MAX_CLIP_PLANES`].
+    pub clip_planes: Vec<ClipPlane>,
+}
+
+impl Default for DosParams {
+    fn default() -> Self {
+        Self {
+            theta_deg: 50.0,
+            grid: 5,
+            slice_distance: None,
+            distance: ConeDistance::Exact,
+            formulation: Formulation::Slices,
+            clip_planes: Vec::new(),
+        }
+    }
+}
+
+/// Largest grid side n (n^2 samples per pixel and slice).
+pub const MAX_GRID: u32 = 32;
+/// Most clipping planes (the GPU keeps them in a fixed uniform array).
+pub const MAX_CLIP_PLANES: usize = 6;
+/// Most slices a render may take.
+pub const MAX_SLICES: f32 = 1.0e5;
+/// Cap on tan(theta), so that theta near 90 degrees keeps every length finite.
+pub const MAX_TAN_THETA: f32 = 1.0e4;
+/// Cap on the cone base's radius in pixels: times the smallest non-zero ring radius (1/32) it
+/// still exceeds twice the largest image side, so the cap changes no sample's clamped position.
+pub const MAX_RADIUS_PX: f32 = 2_097_152.0;
+
+impl DosParams {
+    pub fn validate(&self) -> Result<()> {
+        if !(0.0..90.0).contains(&self.theta_deg) {
+            return Err(Error::param(
+                "render.theta_deg",
+                format!("must be in [0, 90) degrees, got {}", self.theta_deg),
+            ));
+        }
+        if !(1..=MAX_GRID).contains(&self.grid) {
+            return Err(Error::param(
+                "render.grid",
+                format!("must be in 1..={MAX_GRID}, got {}", self.grid),
+            ));
+        }
+        if let Some(d) = self.slice_distance {
+            if !(d > 0.0 && d.is_finite()) {
+                return Err(Error::param(
+                    "render.slice_distance",
+                    format!("must be positive, got {d}"),
+                ));
+            }
+        }
+        if self.clip_planes.len() > MAX_CLIP_PLANES {
+            return Err(Error::param(
+                "render.clip_planes",
+                format!(
+                    "at most {MAX_CLIP_PLANES} planes, got {}",
+                    self.clip_planes.len()
+                ),
+            ));
+        }
+        for (i, plane) in self.clip_planes.iter().enumerate() {
+            if !plane.point.is_finite() || !plane.normal.is_normalized() {
+                return Err(Error::param(
+                    format!("render.clip_planes[{i}]"),
+                    "needs a finite point and a unit normal",
+                ));
+            }
+        }
+        Ok(())
+    }
+
+    /// tan(theta), capped at [`MAX_TAN_THETA`]; computed in f64 so that theta just below 90
+    /// degrees does not round past pi/2 (where f32's tan turns negative).
+    pub fn tan_theta(&self) -> f32 {
+        (self.theta_deg as f64)
+            .to_radians()
+            .tan()
+            .min(MAX_TAN_THETA as f64) as f32
+    }
+}
+
+/// What DOS reads.
+#[derive(Clone, Copy)]
+pub struct DosInput<'a> {
+    pub volume: &'a Volume,
+    pub lut: &'a Lut,
+    pub camera: &'a Camera,
+    pub lighting: &'a Lighting,
+    pub params: &'a DosParams,
+}
+
+/// Values derived once per render and shared by both twins.
+#[derive(Clone, Debug, PartialEq)]
+pub struct DosSetup {
+    /// d, world units.
+    pub slice_distance: f32,
+    /// Depth (along the camera's forward axis) of slice 0; for `Formulation::Rays`, its
+    /// distance along the rays.
+    pub first_depth: f32,
+    /// Number of slabs (0 when the volume lies behind the camera).
+    pub slabs: u32,
+    /// Cone base radius on the previous slab, world units: d tan(theta).
+    pub base_radius: f32,
+    /// Pixels per world unit at depth 1 (perspective) or anywhere (orthographic).
+    pub pixels_per_unit: f32,
+    /// The n x n samples on the unit disc.
+    pub offsets: Vec<Vec2>,
+    /// Each sample's index into `ring_lengths`.
+    pub sample_ring: Vec<u32>,
+    /// The path lengths through the previous slab that samples take (one per ring for the
+    /// exact distance, d alone for the approximated one): the occlusion buffer's planes.
+    pub ring_lengths: Vec<f32>,
+    /// Total ambient radiance L_a.
+    pub ambient: Vec3,
+}
+
+impl DosInput<'_> {
+    /// Validates the inputs and derives the per-render values.
+    pub fn setup(&self) -> Result<DosSetup> {
+        self.params.validate()?;
+        self.lighting.validate()?;
+        if let Some(i) = self
+            .lighting
+            .lights
+            .iter()
+            .position(|l| !matches!(l, Light::Ambient { .. }))
+        {
+            return Err(Error::param(
+                format!("lights[{i}]"),
+                "method \"dos\" is lit by ambient lights only; remove the directional and point lights",
+            ));
+        }
+        let d = self
+            .params
+            .slice_distance
+            .unwrap_or(self.volume.spacing().min_element());
+        let cam = self.camera;
+        let (lo, hi) = self.volume.bounds();
+        let corners = (0..8).map(|c| {
+            Vec3::new(
+                if c & 1 == 0 { lo.x } else { hi.x },
+                if c & 2 == 0 { lo.y } else { hi.y },
+                if c & 4 == 0 { lo.z } else { hi.z },
+            ) - cam.position
+        });
+        let (near, far) = if self.params.formulation == Formulation::Rays && cam.is_perspective() {
+            // Distances along rays from the eye: the box's nearest point, its farthest corner.
+            let nearest = (cam.position.clamp(lo, hi) - cam.position).length();
+            (nearest, corners.map(Vec3::length).fold(0.0, f32::max))
+        } else {
+            corners
+                .map(|c| c.dot(cam.forward))
+                .fold((f32::INFINITY, f32::NEG_INFINITY), |(a, b), z| {
+                    (a.min(z), b.max(z))
+                })
+        };
+        let first_depth = near.max(0.0);
+        let count = ((far - first_depth) / d).ceil().max(0.0);
+        if count > MAX_SLICES {
+            return Err(Error::param(
+                "render.slice_distance",
+                format!("{d} would take over {MAX_SLICES} slices through the volume"),
+            ));
+        }
+        let (hx, _) = cam.half_extent();
+        let n = self.params.grid;
+        let base_radius = d * self.params.tan_theta();
+        let (ring_lengths, sample_ring) = match self.params.distance {
+            ConeDistance::Exact => {
+                let lengths = (0..n.div_ceil(2))
+                    .map(|ring| {
+                        let r = ring_radius(n, ring) * base_radius;
+                        (d * d + r * r).sqrt()
+                    })
+                    .collect();
+                (lengths, disc_rings(n))
+            }
+            ConeDistance::Approximate => (vec![d], vec![0; (n * n) as usize]),
+        };
+        Ok(DosSetup {
+            slice_distance: d,
+            first_depth,
+            slabs: count as u32,
+            base_radius,
+            pixels_per_unit: cam.width as f32 / (2.0 * hx),
+            offsets: disc_grid(n),
+            sample_ring,
+            ring_lengths,
+            ambient: self.lighting.ambient(),
+        })
+    }
+}
+
+impl DosSetup {
+    /// The cone base's radius in pixels on slab `k - 1`, seen from slab k (k >= 1).
+    #[inline]
+    pub fn base_radius_px(&self, camera: &Camera, k: u32) -> f32 {
+        let scale = if camera.is_perspective() {
+            // Mid-depth of slab k - 1: at least d / 2 even when slicing starts at the camera.
+            self.first_depth + (k as f32 - 0.5) * self.slice_distance
+        } else {
+            1.0
+        };
+        (self.base_radius * self.pixels_per_unit / scale).min(MAX_RADIUS_PX)
+    }
+
+    /// Planes of the occlusion buffer.
+    pub fn planes(&self) -> usize {
+        self.ring_lengths.len()
+    }
+}
+
+/// The ring of each cell of the n x n grid (as [`disc_grid`] orders them): ring m has radius
+/// [`ring_radius`]`(n, m)`.
+pub fn disc_rings(n: u32) -> Vec<u32> {
+    let half = |i: u32| (2 * i + 1).abs_diff(n) / 2;
+    (0..n)
+        .flat_map(|j| (0..n).map(move |i| half(i).max(half(j))))
+        .collect()
+}
+
+/// Radius of ring m of the n x n grid on the unit disc: max(|2i + 1 - n|, |2j + 1 - n|) / n,
+/// where that maximum is 2m + 1 for even n and 2m for odd n.
+pub fn ring_radius(n: u32, m: u32) -> f32 {
+    (2 * m + 1 - n % 2) as f32 / n as f32
+}
+
+/// The n x n grid's cell centres mapped onto the unit disc by the concentric map
+/// (Shirley and Chiu 1997), which keeps equal areas: each sample stands for 1/n^2 of the disc.
+pub fn disc_grid(n: u32) -> Vec<Vec2> {
+    let mut out = Vec::with_capacity((n * n) as usize);
+    for j in 0..n {
+        for i in 0..n {
+            let a = 2.0 * (i as f32 + 0.5) / n as f32 - 1.0;
+            let b = 2.0 * (j as f32 + 0.5) / n as f32 - 1.0;
+            let q = if a == 0.0 && b == 0.0 {
+                Vec2::ZERO
+            } else if a.abs() > b.abs() {
+                let phi = std::f32::consts::FRAC_PI_4 * b / a;
+                a * Vec2::new(phi.cos(), phi.sin())
+            } else {
+                let phi = std::f32::consts::FRAC_PI_2 - std::f32::consts::FRAC_PI_4 * a / b;
+                b * Vec2::new(phi.cos(), phi.sin())
+            };
+            out.push(q);
+        }
+    }
+    out
+}
+
+/// Optical properties at `p`, with clipped material removed (extinction and emission zero).
+#[inline]
+pub fn material(volume: &Volume, lut: &Lut, clip_planes: &[ClipPlane], p: Vec3) -> Optical {
+    if clip_planes.iter().any(|c| c.clips(p)) {
+        return Optical::default();
+    }
+    let g = if lut.gradient_max().is_some() {
+        volume.gradient(p).length()
+    } else {
+        0.0
+    };
+    lut.lookup(volume.sample(p), g)
+}
+
+/// The finished image from the eye buffer: per pixel (radiance, transmittance) and (depth,
+/// occlusion factor), with the background seen through the remaining transmittance.
+pub fn finish(
+    camera: &Camera,
+    background: Vec3,
+    eye: &[[f32; 4]],
+    depth: &[[f32; 2]],
+) -> crate::render::RenderImage {
+    let mut img = crate::render::RenderImage::new(camera.width, camera.height);
+    for (((rgba, z), e), dz) in img.rgba.iter_mut().zip(&mut img.depth).zip(eye).zip(depth) {
+        let c = Vec3::new(e[0], e[1], e[2]) + e[3] * background;
+        *rgba = [c.x, c.y, c.z, 1.0 - e[3]];
+        *z = dz[0];
+    }
+    img.occlusion = Some(depth.iter().map(|dz| dz[1]).collect());
+    img
+}
+
+/// Renders on the chosen device.
+pub fn render(
+    compute: &crate::gpu::Compute,
+    input: &DosInput,
+    progress: &dyn crate::progress::Progress,
+) -> Result<crate::render::RenderImage> {
+    match compute {
+        crate::gpu::Compute::Cpu => cpu::render(input, progress),
+        crate::gpu::Compute::Gpu(ctx) => gpu::render(ctx, input, progress),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn disc_grid_is_symmetric_inside_the_disc_and_centred() {
+        for n in [1, 2, 5, 13] {
+            let q = disc_grid(n);
+            assert_eq!(q.len(), (n * n) as usize);
+            assert!(q.iter().all(|p| p.length() <= 1.0 + 1e-6));
+            let mean: Vec2 = q.iter().copied().sum::<Vec2>() / q.len() as f32;
+            assert!(mean.length() < 1e-5, "n={n}: mean {mean}");
+        }
+        assert_eq!(disc_grid(1), vec![Vec2::ZERO]);
+        // Equal areas: the mean squared radius of a uniform disc is 1/2.
+        let q = disc_grid(32);
+        let r2 = q.iter().map(|p| p.length_squared()).sum::<f32>() / q.len() as f32;
+        assert!((r2 - 0.5).abs() < 2e-3, "{r2}");
+    }
+
+    #[test]
+    fn rings_match_the_mapped_radii() {
+        for n in [1, 2, 5, 13, 32] {
+            let rings = disc_rings(n);
+            assert_eq!(*rings.iter().max().unwrap() + 1, n.div_ceil(2));
+            for (q, m) in disc_grid(n).iter().zip(rings) {
+                assert!(
+                    (q.length() - ring_radius(n, m)).abs() < 1e-6,
+                    "n={n}: {q} ring {m}"
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn rejects_out_of_range_parameters_by_name() {
+        let bad = [
+            (
+                DosParams {
+                    theta_deg: 90.0,
+                    ..DosParams::default()
+                },
+                "render.theta_deg",
+            ),
+            (
+                DosParams {
+                    grid: 0,
+                    ..DosParams::default()
+                },
+                "render.grid",
+            ),
+            (
+                DosParams {
+                    slice_distance: Some(f32::NAN),
+                    ..DosParams::default()
+                },
+                "render.slice_distance",
+            ),
+            (
+                DosParams {
+                    clip_planes: vec![ClipPlane {
+                        point: Vec3::ZERO,
+                        normal: Vec3::new(0.0, 0.0, 2.0),
+                    }],
+                    ..DosParams::default()
+                },
+                "render.clip_planes[0]",
+            ),
+        ];
+        for (params, key) in bad {
+            let err = params.validate().unwrap_err().to_string();
+            assert!(err.contains(key), "{err}");
+        }
+        let near_90 = DosParams {
+            theta_deg: 89.999_99,
+            ..DosParams::default()
+        };
+        assert!(near_90.tan_theta() > 0.0 && near_90.tan_theta() <= MAX_TAN_THETA);
+    }
+}
