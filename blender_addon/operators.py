@@ -412,6 +412,56 @@ class OCCLUX_OT_compute_ao(OccluxJob, bpy.types.Operator):
         )
 
 
+def dos_toml(settings) -> str:
+    """The render section for directional occlusion shading."""
+    lines = [
+        "[render]",
+        'method = "dos"',
+        f"theta_deg = {settings.dos_theta_deg:.9g}",
+        f"grid = {settings.dos_grid}",
+        f'distance = "{settings.dos_distance}"',
+    ]
+    if settings.dos_slice_distance > 0.0:  # else the core's default, the smallest spacing
+        lines.append(f"slice_distance = {settings.dos_slice_distance:.9g}")
+    return "\n".join(lines) + "\n"
+
+
+class OCCLUX_OT_render_dos(OccluxJob, bpy.types.Operator):
+    """Render the volume from the active camera with directional occlusion shading (the
+    world's ambient light) and write the EXR (layers beauty, depth, dos, occlusion) for
+    compositing"""
+
+    bl_idname = "occlux.render_dos"
+    bl_label = "Render DOS"
+    bl_options = {"REGISTER"}
+
+    def prepare(self, context: bpy.types.Context) -> Callable[[JobProgress], Path]:
+        import occlux
+
+        settings = context.scene.occlux
+        source = VolumeInput.from_settings(settings)
+        render = context.scene.render
+        width = max(1, render.resolution_x * render.resolution_percentage // 100)
+        height = max(1, render.resolution_y * render.resolution_percentage // 100)
+        toml = scenes.scene_toml(context, source, width, height, ambient_only=True)
+        toml += dos_toml(settings)
+        device = settings.device
+        exr = output_dir(settings) / f"{source.stem}-dos.exr"
+
+        def work(progress: JobProgress) -> Path:
+            scene = occlux.Scene.from_toml(toml)
+            result = occlux.render(scene, device=device, progress=progress)
+            exr.parent.mkdir(parents=True, exist_ok=True)
+            occlux.write_exr(exr, result, scene)  # atomic: a temporary file, then renamed
+            return exr
+
+        return work
+
+    def finish(self, context: bpy.types.Context, exr: Path) -> str:
+        context.scene.occlux.last_exr = str(exr)
+        return f"DOS render written to {exr} (layers beauty, depth, dos, occlusion)"
+
+
 @dataclass(frozen=True)
 class Reference:
     """An Occlux reference and the scene and VDB it was made from (in a temporary folder)."""
@@ -585,6 +635,7 @@ class OCCLUX_OT_composite(bpy.types.Operator):
 CLASSES = (
     OCCLUX_OT_import_volume,
     OCCLUX_OT_compute_ao,
+    OCCLUX_OT_render_dos,
     OCCLUX_OT_check_cycles,
     OCCLUX_OT_composite,
 )

@@ -130,6 +130,43 @@ class OccluxSettings(bpy.types.PropertyGroup):
         default=1.0,
         update=_update_ao_factor,
     )
+    dos_theta_deg: FloatProperty(
+        name="Cone angle",
+        description="Half-angle of the cone of ambient light around the view direction, "
+        "degrees in [0, 90)",
+        min=0.0,
+        max=89.9,
+        default=50.0,
+    )
+    dos_grid: IntProperty(
+        name="Cone samples",
+        description="n x n samples on the cone's base",
+        min=1,
+        max=32,
+        default=5,
+    )
+    dos_slice_distance: FloatProperty(
+        name="Slice distance",
+        description="Distance between view-aligned slices in scene units (0: the smallest "
+        "voxel spacing)",
+        min=0.0,
+        default=0.0,
+        precision=4,
+    )
+    dos_distance: EnumProperty(
+        name="Cone distance",
+        description="Path length through the occluding slice",
+        items=[
+            ("exact", "Exact", "sqrt(d^2 + r^2) to each sample on the cone's base"),
+            ("approximate", "Approximate", "The slice distance d"),
+        ],
+        default="exact",
+    )
+    last_exr: StringProperty(
+        name="Occlux EXR",
+        description="The EXR the last Occlux render wrote (what Composite reads)",
+        subtype="FILE_PATH",
+    )
     check_estimator: EnumProperty(
         name="Check lighting",
         description="What the Cycles check renders (both renderers, same scene)",

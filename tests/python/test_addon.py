@@ -19,7 +19,7 @@ import numpy as np
 import occlux
 import occlux.cycles as oc
 import pytest
-from occlux_testing import REPO
+from occlux_testing import REPO, oiio_read
 
 SHARED = REPO.parent / "shared" / "data" / "scivis"
 RESULT = "OCCLUX-RESULT "
@@ -105,7 +105,7 @@ def test_the_extension_installs_registers_and_reloads(extension: Path, tmp_path:
         extension,
         tmp_path,
         """
-        ops = ("import_volume", "compute_ao", "check_cycles", "composite")
+        ops = ("import_volume", "compute_ao", "render_dos", "check_cycles", "composite")
         result["registered"] = [hasattr(bpy.ops.occlux, op) for op in ops]
         result["panel"] = hasattr(bpy.types, "VIEW3D_PT_occlux")
         result["settings"] = hasattr(bpy.types.Scene, "occlux")
@@ -117,7 +117,7 @@ def test_the_extension_installs_registers_and_reloads(extension: Path, tmp_path:
         result["after_reload"] = hasattr(bpy.ops.occlux, "import_volume")
         """,
     )
-    assert result["registered"] == [True] * 4 and result["panel"] and result["settings"]
+    assert result["registered"] == [True] * 5 and result["panel"] and result["settings"]
     assert result["after_disable"] is False and result["after_reload"] is True
     # The occlux package came from the wheel inside the extension, not from this checkout.
     assert str(tmp_path) in result["occlux_from"], result["occlux_from"]
@@ -189,7 +189,7 @@ def counts():
 checks = lambda: set(glob.glob(tempfile.gettempdir() + "/occlux-check-*"))
 before, checks_before = counts(), checks()
 outcomes = {{}}
-for op in ("import_volume", "compute_ao", "check_cycles"):
+for op in ("import_volume", "compute_ao", "render_dos", "check_cycles"):
     for case, path in (("missing", {str(tmp_path / "missing.nrrd")!r}),
                        ("unsupported", {str(tmp_path / "notes.txt")!r}),
                        ("short", {str(tmp_path / "short.raw")!r}),
@@ -201,10 +201,11 @@ s.memory_budget_mb = 5  # the tooth needs 5.9 MB as float32
 outcomes["budget"] = attempt(bpy.ops.occlux.compute_ao)
 s.memory_budget_mb = 2048
 s.ao_method, s.ao_radius, s.device = "exact", 4, "cpu"
-for op in ("compute_ao", "check_cycles"):
+for op in ("compute_ao", "render_dos", "check_cycles"):
     outcomes[op + " cancel"] = [attempt(getattr(bpy.ops.occlux, op), cancel_after=2), s.status]
 scene.camera = None
 outcomes["no camera"] = attempt(bpy.ops.occlux.check_cycles)
+outcomes["dos no camera"] = attempt(bpy.ops.occlux.render_dos)
 result["outcomes"] = outcomes
 result["unchanged"] = before == counts()
 result["check_folders_left"] = sorted(checks() - checks_before)
@@ -214,7 +215,7 @@ result["groups"] = len(bpy.data.node_groups)
 """,
     )
     outcomes = result["outcomes"]
-    for op in ("import_volume", "compute_ao", "check_cycles"):
+    for op in ("import_volume", "compute_ao", "render_dos", "check_cycles"):
         missing, unsupported = outcomes[f"{op} missing"], outcomes[f"{op} unsupported"]
         assert "no volume file" in missing and "missing.nrrd" in missing, missing
         assert "notes.txt" in unsupported, unsupported
@@ -224,9 +225,11 @@ result["groups"] = len(bpy.data.node_groups)
         assert "4096 x 4096 x 4096 voxels need 262144 MB" in huge, huge
         assert "over the memory budget of 2048 MB" in huge, huge
     assert "over the memory budget of 5 MB" in outcomes["budget"], outcomes["budget"]
-    for op, label in (("compute_ao", "Compute AO"), ("check_cycles", "Check Against Cycles")):
+    labels = {"compute_ao": "Compute AO", "render_dos": "Render DOS"}
+    for op, label in {**labels, "check_cycles": "Check Against Cycles"}.items():
         assert outcomes[f"{op} cancel"] == [["CANCELLED"], f"{label}: cancelled, nothing was added"]
     assert "no active camera" in outcomes["no camera"], outcomes["no camera"]
+    assert "no active camera" in outcomes["dos no camera"], outcomes["dos no camera"]
     assert "no EXR file" in result["composite"]
     assert result["unchanged"] and result["groups"] == 0, output
     assert result["check_folders_left"] == [], "the check's temporary files are removed"
@@ -451,3 +454,59 @@ result["scenes"] = [x.name for x in bpy.data.scenes]
     assert over_noise == pytest.approx(report["rmse_over_noise"], rel=1e-5)
     assert rms_z == pytest.approx(report["rms_z"], rel=1e-5)
     assert result["unchanged"] and result["scenes"] == ["Scene"], "the harness cleaned up"
+
+
+def test_render_dos_writes_the_exr_layers_for_the_compositor(
+    extension: Path, tmp_path: Path
+) -> None:
+    out = tmp_path / "out"
+    result, output = blender(
+        extension,
+        tmp_path / "user",
+        CAMERA_AND_WORLD
+        + f"""
+import occlux.cycles as oc
+s = scene.occlux
+s.volume_path = {str(phantom_npy(tmp_path))!r}
+s.preset = "ct-soft-tissue"
+s.output_dir = {str(out) + "/"!r}
+s.device = "cpu"
+s.dos_theta_deg, s.dos_grid, s.dos_distance = 30.0, 3, "approximate"
+scene.render.resolution_percentage = 12  # 48 x 36
+result["op"] = list(bpy.ops.occlux.render_dos())
+result["exr"] = s.last_exr
+_, header = oc.read_channels(s.last_exr)
+oc.check_camera(scene, json.loads(header["occlux/camera"]))  # Blender's camera, as rendered
+result["method"] = header["occlux/method"]
+result["lighting"] = header["occlux/lighting"]
+result["composite"] = list(bpy.ops.occlux.composite(filepath=s.last_exr, layer="occlusion"))
+tree = scene.compositing_node_group
+image = next(n for n in tree.nodes if n.bl_idname == "CompositorNodeImage")
+result["occlusion_to"] = [l.to_node.bl_idname for l in image.outputs["occlusion"].links]
+# DOS is lit by the world alone: a sun is refused before anything is written.
+sun = bpy.data.objects.new("Sun", bpy.data.lights.new("Sun", "SUN"))
+scene.collection.objects.link(sun)
+s.output_dir = {str(tmp_path / "out2") + "/"!r}
+result["with_sun"] = attempt(bpy.ops.occlux.render_dos)
+""",
+    )
+    assert result["op"] == ["FINISHED"], output
+    exr = out / "phantom-dos.exr"
+    assert result["exr"] == str(exr) and sorted(p.name for p in out.iterdir()) == [exr.name]
+    assert "theta_deg: 30.0, grid: 3" in result["method"], result["method"]
+    assert "distance: Approximate" in result["method"], result["method"]
+    assert "Ambient { radiance: Vec3(1.0, 0.9, 0.8) }" in result["lighting"], result["lighting"]
+    channels = oiio_read(exr)
+    assert sorted(channels) == sorted(
+        [f"beauty.{c}" for c in "RGBA"] + ["depth.Z"] + [f"dos.{c}" for c in "RGBA"]
+        + ["occlusion.Y"]
+    )  # fmt: skip
+    assert channels["occlusion.Y"].shape == (36, 48)
+    alpha, occlusion = channels["beauty.A"], channels["occlusion.Y"]
+    inside = alpha > 0.5
+    assert inside.sum() > 300 and np.isfinite(channels["dos.R"]).all()
+    assert 0.0 <= occlusion.min() and occlusion.max() <= 1.0 + 1e-3
+    assert occlusion[inside].mean() < 0.95, "the phantom occludes its own ambient light"
+    assert result["composite"] == ["FINISHED"] and result["occlusion_to"] == ["ShaderNodeMix"]
+    assert "light 'Sun'" in result["with_sun"] and "ambient" in result["with_sun"]
+    assert not (tmp_path / "out2").exists()
