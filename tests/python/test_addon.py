@@ -510,3 +510,18 @@ result["with_sun"] = attempt(bpy.ops.occlux.render_dos)
     assert result["composite"] == ["FINISHED"] and result["occlusion_to"] == ["ShaderNodeMix"]
     assert "light 'Sun'" in result["with_sun"] and "ambient" in result["with_sun"]
     assert not (tmp_path / "out2").exists()
+
+
+def test_the_guide_figure_script_renders(tmp_path: Path) -> None:
+    """docs/make_blender_figure.py (the guide's five steps, then Cycles), at a tiny size."""
+    png = tmp_path / "figure.png"
+    script = REPO / "docs" / "make_blender_figure.py"
+    args = ["--out", str(png), "--size", "40", "40", "--samples", "2"]
+    run = subprocess.run(
+        [sys.executable, str(script), *args], capture_output=True, text=True, timeout=300
+    )
+    assert run.returncode == 0, run.stdout + run.stderr
+    assert "AO (cdf, radius 8) of tooth.nrrd" in run.stdout, run.stdout
+    pixels = oiio_read(png)
+    assert sorted(pixels) == ["A", "B", "G", "R"] and pixels["R"].shape == (40, 40)
+    assert pixels["R"].std() > 0.01, "the tooth stands out from the background"
