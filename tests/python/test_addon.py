@@ -525,3 +525,97 @@ def test_the_guide_figure_script_renders(tmp_path: Path) -> None:
     pixels = oiio_read(png)
     assert sorted(pixels) == ["A", "B", "G", "R"] and pixels["R"].shape == (40, 40)
     assert pixels["R"].std() > 0.01, "the tooth stands out from the background"
+
+
+def test_the_modal_path_polls_the_thread_and_esc_cancels(extension: Path, tmp_path: Path) -> None:
+    """invoke and modal as Blender's event loop drives them, with a stand-in window manager
+    (a headless Blender has no window to run modal operators in): timer events update the
+    progress until the thread ends, ESC cancels it."""
+    out = tmp_path / "out"
+    result, output = blender(
+        extension,
+        tmp_path / "user",
+        f"""
+        import time
+        from pathlib import Path
+        from types import SimpleNamespace
+        ops = sys.modules["bl_ext.user_default.occlux.operators"]
+        calls = []
+
+        class WindowManager:
+            windows = []
+            def event_timer_add(self, step, window):
+                calls.append("timer_add")
+                return "timer"
+            def event_timer_remove(self, timer):
+                calls.append("timer_remove")
+            def modal_handler_add(self, op):
+                calls.append("modal_handler_add")
+            def progress_begin(self, lo, hi):
+                calls.append("progress_begin")
+            def progress_update(self, value):
+                calls.append(round(value, 3))
+            def progress_end(self):
+                calls.append("progress_end")
+
+        class ComputeAO(ops.OccluxJob):  # the operator's methods on a plain object
+            bl_label = ops.OCCLUX_OT_compute_ao.bl_label
+            prepare = ops.OCCLUX_OT_compute_ao.prepare
+            finish = ops.OCCLUX_OT_compute_ao.finish
+            cancel_after = 0
+            def report(self, kind, message):
+                calls.append((sorted(kind)[0], message))
+
+        context = SimpleNamespace(
+            window="window", window_manager=WindowManager(), scene=bpy.context.scene)
+        timer = SimpleNamespace(type="TIMER", value="NOTHING")
+        esc = SimpleNamespace(type="ESC", value="PRESS")
+        s = bpy.context.scene.occlux
+        s.volume_path = {str(SHARED / "tooth.nrrd")!r}
+        s.output_dir = {str(out) + "/"!r}
+        s.ao_method, s.ao_radius, s.device = "exact", 8, "cpu"
+
+        def drive(op, esc_at=None):
+            state = op.invoke(context, None)
+            states, statuses = [state], []
+            while state == {{"RUNNING_MODAL"}}:
+                time.sleep(0.02)
+                if esc_at is not None and op._run.progress.fraction > esc_at:
+                    state = op.modal(context, esc)
+                    esc_at = None
+                else:
+                    state = op.modal(context, timer)
+                states.append(state)
+                statuses.append(s.status)
+            return sorted(state), len(states), statuses
+
+        objects = len(bpy.data.objects), len(bpy.data.volumes), len(bpy.data.materials)
+        result["cancel"] = drive(ComputeAO(), esc_at=0.05)
+        result["cancel_calls"] = list(calls)
+        result["unchanged"] = objects == (
+            len(bpy.data.objects), len(bpy.data.volumes), len(bpy.data.materials))
+        out = Path({str(out)!r})
+        result["files_after_cancel"] = sorted(p.name for p in out.glob("*"))
+        calls.clear()
+        s.ao_method, s.ao_radius = "cdf", 4
+        result["done"] = drive(ComputeAO())
+        result["done_calls"] = list(calls)
+        result["object"] = "tooth-ao" in bpy.data.objects
+        """,
+    )
+    state, steps, statuses = result["cancel"]
+    assert state == ["CANCELLED"] and steps > 2, result["cancel"]
+    assert "Compute AO: cancelling" in statuses, statuses
+    calls = result["cancel_calls"]
+    assert calls[:3] == ["timer_add", "progress_begin", "modal_handler_add"], calls
+    assert ["WARNING", "Compute AO: cancelled, nothing was added"] in calls, calls
+    assert calls.index("timer_remove") < calls.index("progress_end"), calls
+    assert result["unchanged"] and result["files_after_cancel"] == [], output
+    state, steps, statuses = result["done"]
+    assert state == ["FINISHED"] and result["object"], result["done"]
+    assert sorted(p.name for p in out.iterdir()) == ["tooth-ao.vdb"]
+    calls = result["done_calls"]
+    updates = [c for c in calls if isinstance(c, float)]
+    assert updates and all(0.0 <= u <= 1.0 for u in updates), calls
+    assert calls[-2:][0] == "progress_end" and calls[-1][0] == "INFO", calls
+    assert statuses[-1].startswith("AO (cdf, radius 4) of tooth.nrrd"), statuses
