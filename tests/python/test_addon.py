@@ -115,10 +115,36 @@ def test_the_extension_installs_registers_and_reloads(extension: Path, tmp_path:
             result["after_disable"] = hasattr(bpy.types.Scene, "occlux")
             addon_utils.enable(name, default_set=True)
         result["after_reload"] = hasattr(bpy.ops.occlux, "import_volume")
+
+        # The panel, drawn into a recording layout: every setting and operator it shows exists
+        # (Blender itself only prints a warning for a misspelt one).
+        from types import SimpleNamespace
+        drawn = {"props": [], "ops": []}
+        class Layout:
+            def __getattr__(self, name):  # column, box, separator, label, progress
+                return lambda *args, **kwargs: self
+            def prop(self, data, name, **kwargs):
+                drawn["props"].append(name)
+            def operator(self, idname, **kwargs):
+                drawn["ops"].append(idname)
+                return SimpleNamespace()
+        s = bpy.context.scene.occlux
+        s.volume_path, s.status, s.check_report = "scan.raw", "done", "report.json"
+        bpy.types.VIEW3D_PT_occlux.draw(SimpleNamespace(layout=Layout()), bpy.context)
+        known = set(s.bl_rna.properties.keys())
+        result["unknown_props"] = [p for p in drawn["props"] if p not in known]
+        result["unknown_ops"] = [
+            o for o in drawn["ops"] if not hasattr(bpy.ops.occlux, o.split(".")[1])]
+        result["drawn"] = len(drawn["props"]), sorted(drawn["ops"])
         """,
     )
     assert result["registered"] == [True] * 5 and result["panel"] and result["settings"]
     assert result["after_disable"] is False and result["after_reload"] is True
+    assert result["unknown_props"] == [] and result["unknown_ops"] == [], result
+    assert result["drawn"][0] > 20 and result["drawn"][1] == sorted(
+        f"occlux.{op}"
+        for op in ("import_volume", "compute_ao", "render_dos", "check_cycles", "composite")
+    ), result["drawn"]
     # The occlux package came from the wheel inside the extension, not from this checkout.
     assert str(tmp_path) in result["occlux_from"], result["occlux_from"]
 
@@ -472,6 +498,7 @@ s.preset = "ct-soft-tissue"
 s.output_dir = {str(out) + "/"!r}
 s.device = "cpu"
 s.dos_theta_deg, s.dos_grid, s.dos_distance = 30.0, 3, "approximate"
+s.dos_slice_distance = 0.05
 scene.render.resolution_percentage = 12  # 48 x 36
 result["op"] = list(bpy.ops.occlux.render_dos())
 result["exr"] = s.last_exr
@@ -494,7 +521,7 @@ result["with_sun"] = attempt(bpy.ops.occlux.render_dos)
     exr = out / "phantom-dos.exr"
     assert result["exr"] == str(exr) and sorted(p.name for p in out.iterdir()) == [exr.name]
     assert "theta_deg: 30.0, grid: 3" in result["method"], result["method"]
-    assert "distance: Approximate" in result["method"], result["method"]
+    assert "slice_distance: Some(0.05), distance: Approximate" in result["method"], result["method"]
     assert "Ambient { radiance: Vec3(1.0, 0.9, 0.8) }" in result["lighting"], result["lighting"]
     channels = oiio_read(exr)
     assert sorted(channels) == sorted(
