@@ -22,7 +22,14 @@ from pathlib import Path
 
 HERE = Path(__file__).resolve().parent
 REPO = HERE.parent
-SOURCES = ("__init__.py", "properties.py", "operators.py", "nodes.py", "panel.py")
+SOURCES = (
+    "__init__.py",
+    "properties.py",
+    "operators.py",
+    "nodes.py",
+    "panel.py",
+    "scenes.py",
+)
 
 
 def blender_ext() -> Path:

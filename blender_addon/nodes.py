@@ -9,6 +9,7 @@ import bpy
 
 Point = tuple[float, float, Sequence[float], Sequence[float]]
 AO_FACTOR = "Occlux AO factor"
+AO_SHADINGS = ("ALBEDO", "EMISSION")
 
 
 def _ramp(tree: bpy.types.NodeTree, stops: Sequence[tuple[float, Sequence[float]]]):
@@ -29,12 +30,14 @@ def volume_material(
     points: Sequence[Point] | None,
     value_range: tuple[float, float],
     units: str,
-    has_ao: bool,
+    ao: str | None,
     ao_factor: float,
 ) -> bpy.types.Material:
     """A Principled Volume reading the `density` grid (extinction per scene unit, so Density is
-    1) and an albedo from the transfer function's colours over the `value` grid; with an `ao`
-    grid, the albedo is darkened by ``mix(1, ao, factor)``."""
+    1) and an albedo from the transfer function's colours over the `value` grid. With an `ao`
+    grid, read by an Attribute node: ``ao="ALBEDO"`` darkens the albedo by
+    ``mix(1, ao, factor)``; ``ao="EMISSION"`` emits the albedo colour with strength
+    ``factor * ao``. The factor is the value node named AO_FACTOR (the panel's AO strength)."""
     material = bpy.data.materials.get(name) or bpy.data.materials.new(name)
     tree = material.node_tree
     if tree is None:  # Blender 5 gives new materials a tree; older ones need use_nodes
@@ -68,24 +71,34 @@ def volume_material(
         grey.outputs[0].default_value = (0.8, 0.8, 0.8, 1.0)
         albedo = grey.outputs[0]
 
-    if has_ao:
-        ao = tree.nodes.new("ShaderNodeAttribute")
-        ao.attribute_name = "ao"
+    if ao is not None:
+        if ao not in AO_SHADINGS:
+            raise ValueError(f"ao shading '{ao}': expected one of {', '.join(AO_SHADINGS)}")
+        grid = tree.nodes.new("ShaderNodeAttribute")
+        grid.attribute_name = "ao"
         factor = tree.nodes.new("ShaderNodeValue")
         factor.name = factor.label = AO_FACTOR
         factor.outputs[0].default_value = ao_factor
-        shade = tree.nodes.new("ShaderNodeMix")  # mix(1, ao, factor)
-        shade.data_type = "FLOAT"
-        shade.inputs["A"].default_value = 1.0
-        tree.links.new(factor.outputs[0], shade.inputs["Factor"])
-        tree.links.new(ao.outputs["Fac"], shade.inputs["B"])
-        darken = tree.nodes.new("ShaderNodeMix")
-        darken.data_type = "RGBA"
-        darken.blend_type = "MULTIPLY"
-        darken.inputs["Factor"].default_value = 1.0
-        tree.links.new(albedo, darken.inputs[6])  # A (colour)
-        tree.links.new(shade.outputs["Result"], darken.inputs[7])  # B (colour)
-        albedo = darken.outputs[2]  # Result (colour)
+        if ao == "EMISSION":
+            strength = tree.nodes.new("ShaderNodeMath")  # factor * ao
+            strength.operation = "MULTIPLY"
+            tree.links.new(factor.outputs[0], strength.inputs[0])
+            tree.links.new(grid.outputs["Fac"], strength.inputs[1])
+            tree.links.new(strength.outputs[0], shader.inputs["Emission Strength"])
+            tree.links.new(albedo, shader.inputs["Emission Color"])
+        else:
+            shade = tree.nodes.new("ShaderNodeMix")  # mix(1, ao, factor)
+            shade.data_type = "FLOAT"
+            shade.inputs["A"].default_value = 1.0
+            tree.links.new(factor.outputs[0], shade.inputs["Factor"])
+            tree.links.new(grid.outputs["Fac"], shade.inputs["B"])
+            darken = tree.nodes.new("ShaderNodeMix")
+            darken.data_type = "RGBA"
+            darken.blend_type = "MULTIPLY"
+            darken.inputs["Factor"].default_value = 1.0
+            tree.links.new(albedo, darken.inputs[6])  # A (colour)
+            tree.links.new(shade.outputs["Result"], darken.inputs[7])  # B (colour)
+            albedo = darken.outputs[2]  # Result (colour)
     tree.links.new(albedo, shader.inputs["Color"])
     return material
 

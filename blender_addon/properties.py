@@ -6,20 +6,30 @@ import bpy
 from bpy.props import (
     EnumProperty,
     FloatProperty,
+    IntProperty,
     IntVectorProperty,
     PointerProperty,
     StringProperty,
 )
 
+from . import nodes
+
 PRESETS = ("ct-bone", "ct-soft-tissue", "mri", "simulation", "boundary-2d")
+AO_METHODS = (
+    ("cdf", "CDF", "Normal-CDF estimate of the occluded fraction (the paper's default)"),
+    ("gauss", "Gauss", "Gaussian estimate from the local mean and variance"),
+    ("gauss-exact", "Gauss (exact)", "Gaussian estimate with the exact ball integral"),
+    ("penner", "Penner", "Penner's estimate from the local extremes"),
+    ("exact", "Exact", "Count the voxels in every ball: slow, CPU only, the reference"),
+)
 RAW_TYPES = ("uint8", "int8", "uint16", "int16", "uint32", "int32", "float32", "float64")
 
 
 def _update_ao_factor(settings: OccluxSettings, context: bpy.types.Context) -> None:
     """Moves the AO factor node of every Occlux material to the new value."""
     for material in bpy.data.materials:
-        if material.node_tree and "Occlux AO factor" in material.node_tree.nodes:
-            node = material.node_tree.nodes["Occlux AO factor"]
+        if material.node_tree and nodes.AO_FACTOR in material.node_tree.nodes:
+            node = material.node_tree.nodes[nodes.AO_FACTOR]
             node.outputs[0].default_value = settings.ao_factor
 
 
@@ -73,13 +83,132 @@ class OccluxSettings(bpy.types.PropertyGroup):
         subtype="DIR_PATH",
         default="//occlux/",
     )
+    memory_budget_mb: IntProperty(
+        name="Memory budget (MB)",
+        description="Refuse volumes whose float32 copy (voxels x 4 bytes, from the file's "
+        "header) is larger, before loading them",
+        min=1,
+        default=2048,
+    )
+    device: EnumProperty(
+        name="Device",
+        items=[
+            ("auto", "Auto", "A GPU adapter if one opens, else the CPU"),
+            ("gpu", "GPU", "The GPU (an error if none opens)"),
+            ("cpu", "CPU", "The CPU twin"),
+        ],
+        default="auto",
+    )
+    ao_method: EnumProperty(
+        name="AO method",
+        description="How the occluded fraction of each voxel's tangent sphere is estimated",
+        items=AO_METHODS,
+        default="cdf",
+    )
+    ao_radius: IntProperty(
+        name="AO radius",
+        description="Radius of the tangent sphere, in voxels",
+        min=1,
+        soft_max=64,
+        default=10,
+    )
+    ao_shading: EnumProperty(
+        name="AO shading",
+        description="What the `ao` grid drives in the material",
+        items=[
+            ("ALBEDO", "Darken albedo", "Multiply the albedo by mix(1, ao, strength)"),
+            ("EMISSION", "Emission", "Emit the albedo colour with strength x ao"),
+        ],
+        default="ALBEDO",
+    )
     ao_factor: FloatProperty(
         name="AO strength",
-        description="How much the `ao` grid darkens the albedo (0: not at all, 1: fully)",
+        description="How much the `ao` grid darkens the albedo (0: not at all, 1: fully) or, "
+        "for emission, the emission strength at ao = 1",
         min=0.0,
-        max=1.0,
+        soft_max=1.0,
         default=1.0,
         update=_update_ao_factor,
+    )
+    dos_theta_deg: FloatProperty(
+        name="Cone angle",
+        description="Half-angle of the cone of ambient light around the view direction, "
+        "degrees in [0, 90)",
+        min=0.0,
+        max=89.9,
+        default=50.0,
+    )
+    dos_grid: IntProperty(
+        name="Cone samples",
+        description="n x n samples on the cone's base",
+        min=1,
+        max=32,
+        default=5,
+    )
+    dos_slice_distance: FloatProperty(
+        name="Slice distance",
+        description="Distance between view-aligned slices in scene units (0: the smallest "
+        "voxel spacing)",
+        min=0.0,
+        default=0.0,
+        precision=4,
+    )
+    dos_distance: EnumProperty(
+        name="Cone distance",
+        description="Path length through the occluding slice",
+        items=[
+            ("exact", "Exact", "sqrt(d^2 + r^2) to each sample on the cone's base"),
+            ("approximate", "Approximate", "The slice distance d"),
+        ],
+        default="exact",
+    )
+    last_exr: StringProperty(
+        name="Occlux EXR",
+        description="The EXR the last Occlux render wrote (what Composite reads)",
+        subtype="FILE_PATH",
+    )
+    check_estimator: EnumProperty(
+        name="Check lighting",
+        description="What the Cycles check renders (both renderers, same scene)",
+        items=[
+            ("ambient", "Ambient", "The world's uniform light, no bounces: volumetric AO"),
+            ("single", "Single scattering", "The sun lights, with shadows, one bounce"),
+        ],
+        default="ambient",
+    )
+    check_size: IntProperty(
+        name="Check size",
+        description="Longest side of the check's images in pixels (the render's aspect)",
+        min=8,
+        soft_max=512,
+        default=64,
+    )
+    check_spp: IntProperty(
+        name="Check samples",
+        description="Samples per pixel, for Occlux and for Cycles",
+        min=2,
+        soft_max=4096,
+        default=128,
+    )
+    check_seeds: IntProperty(
+        name="Cycles renders",
+        description="Cycles renders with distinct seeds (samples / renders each): their "
+        "spread is Cycles' standard error",
+        min=2,
+        soft_max=64,
+        default=32,
+    )
+    # The last check's figures, shown in the panel.
+    check_rmse: FloatProperty(name="RMSE", options={"SKIP_SAVE"})
+    check_rmse_over_noise: FloatProperty(name="RMSE / noise", options={"SKIP_SAVE"})
+    check_rms_z: FloatProperty(name="RMS z", options={"SKIP_SAVE"})
+    check_agrees: bpy.props.BoolProperty(name="Agree", options={"SKIP_SAVE"})
+    check_report: StringProperty(name="Check report", subtype="FILE_PATH", options={"SKIP_SAVE"})
+
+    # What the running or last job says, shown in the panel (written on the main thread).
+    status: StringProperty(name="Status", options={"SKIP_SAVE"})
+    progress: FloatProperty(
+        name="Progress", subtype="FACTOR", min=0.0, max=1.0, options={"SKIP_SAVE"}
     )
 
 

@@ -17,11 +17,14 @@ from pathlib import Path
 
 import numpy as np
 import occlux
+import occlux.cycles as oc
 import pytest
-from occlux_testing import REPO
+from occlux_testing import REPO, oiio_read
 
 SHARED = REPO.parent / "shared" / "data" / "scivis"
 RESULT = "OCCLUX-RESULT "
+# A scene for occlux.ao_volume, which reads only its classification.
+AO_SCENE = '[volume]\nphantom = "sphere"\n[camera]\nposition = [0, -4, 0]\n'
 
 # An operator that reports an error raises RuntimeError with the report when called from
 # Python: `attempt` records either the operator's result or that message.
@@ -70,6 +73,27 @@ def blender(extension: Path, user: Path, script: str) -> tuple[dict, str]:
     return json.loads(line[len(RESULT) :]), output
 
 
+# A camera looking at the origin from where the example scenes look, and a uniform world.
+CAMERA_AND_WORLD = """
+from mathutils import Vector
+scene = bpy.context.scene
+for o in list(bpy.data.objects):
+    bpy.data.objects.remove(o)
+camera = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))
+scene.collection.objects.link(camera)
+camera.location = (3.2, -3.2, 2.6)
+camera.rotation_mode = "QUATERNION"
+camera.rotation_quaternion = (-camera.location).to_track_quat("-Z", "Y")
+scene.camera = camera
+camera.data.lens = 80  # the volume fills most of the frame
+scene.render.resolution_x, scene.render.resolution_y = 400, 300
+scene.world = scene.world or bpy.data.worlds.new("World")
+background = next(n for n in scene.world.node_tree.nodes if n.bl_idname == "ShaderNodeBackground")
+background.inputs["Color"].default_value = (1.0, 0.9, 0.8, 1.0)
+background.inputs["Strength"].default_value = 1.0
+"""
+
+
 def phantom_npy(folder: Path) -> Path:
     path = folder / "phantom.npy"
     np.save(path, np.asarray(occlux.Volume.phantom("ct", 64).values))
@@ -81,7 +105,7 @@ def test_the_extension_installs_registers_and_reloads(extension: Path, tmp_path:
         extension,
         tmp_path,
         """
-        ops = ("import_volume", "composite")
+        ops = ("import_volume", "compute_ao", "render_dos", "check_cycles", "composite")
         result["registered"] = [hasattr(bpy.ops.occlux, op) for op in ops]
         result["panel"] = hasattr(bpy.types, "VIEW3D_PT_occlux")
         result["settings"] = hasattr(bpy.types.Scene, "occlux")
@@ -91,10 +115,36 @@ def test_the_extension_installs_registers_and_reloads(extension: Path, tmp_path:
             result["after_disable"] = hasattr(bpy.types.Scene, "occlux")
             addon_utils.enable(name, default_set=True)
         result["after_reload"] = hasattr(bpy.ops.occlux, "import_volume")
+
+        # The panel, drawn into a recording layout: every setting and operator it shows exists
+        # (Blender itself only prints a warning for a misspelt one).
+        from types import SimpleNamespace
+        drawn = {"props": [], "ops": []}
+        class Layout:
+            def __getattr__(self, name):  # column, box, separator, label, progress
+                return lambda *args, **kwargs: self
+            def prop(self, data, name, **kwargs):
+                drawn["props"].append(name)
+            def operator(self, idname, **kwargs):
+                drawn["ops"].append(idname)
+                return SimpleNamespace()
+        s = bpy.context.scene.occlux
+        s.volume_path, s.status, s.check_report = "scan.raw", "done", "report.json"
+        bpy.types.VIEW3D_PT_occlux.draw(SimpleNamespace(layout=Layout()), bpy.context)
+        known = set(s.bl_rna.properties.keys())
+        result["unknown_props"] = [p for p in drawn["props"] if p not in known]
+        result["unknown_ops"] = [
+            o for o in drawn["ops"] if not hasattr(bpy.ops.occlux, o.split(".")[1])]
+        result["drawn"] = len(drawn["props"]), sorted(drawn["ops"])
         """,
     )
-    assert result["registered"] == [True, True] and result["panel"] and result["settings"]
+    assert result["registered"] == [True] * 5 and result["panel"] and result["settings"]
     assert result["after_disable"] is False and result["after_reload"] is True
+    assert result["unknown_props"] == [] and result["unknown_ops"] == [], result
+    assert result["drawn"][0] > 20 and result["drawn"][1] == sorted(
+        f"occlux.{op}"
+        for op in ("import_volume", "compute_ao", "render_dos", "check_cycles", "composite")
+    ), result["drawn"]
     # The occlux package came from the wheel inside the extension, not from this checkout.
     assert str(tmp_path) in result["occlux_from"], result["occlux_from"]
 
@@ -141,35 +191,75 @@ def test_load_volume_adds_a_classified_volume_object(
 
 
 def test_bad_input_reports_an_error_and_adds_nothing(extension: Path, tmp_path: Path) -> None:
+    """Every volume operator, given a missing file, an unsupported format, a volume over the
+    memory budget (refused from its header: the file holds no voxels), a short raw file, no
+    camera, or cancelled mid-way: a clear message, and no new data-blocks or files."""
     (tmp_path / "notes.txt").write_text("not a volume")
     (tmp_path / "short.raw").write_bytes(bytes(100))
+    (tmp_path / "huge.nrrd").write_text(
+        "NRRD0004\ntype: float\ndimension: 3\nsizes: 4096 4096 4096\nencoding: raw\n\n"
+    )
+    out = tmp_path / "out"
     result, output = blender(
         extension,
         tmp_path / "user",
-        f"""
-        s = bpy.context.scene.occlux
-        s.output_dir = {str(tmp_path / "out") + "/"!r}
-        before = len(bpy.data.objects), len(bpy.data.volumes), len(bpy.data.materials)
-        outcomes = []
-        for path in ({str(tmp_path / "missing.nrrd")!r}, {str(tmp_path / "notes.txt")!r},
-                     {str(tmp_path / "short.raw")!r}):
-            s.volume_path = path
-            outcomes.append(attempt(bpy.ops.occlux.import_volume))
-        after = len(bpy.data.objects), len(bpy.data.volumes), len(bpy.data.materials)
-        result["outcomes"] = outcomes
-        result["unchanged"] = before == after
-        x = {str(tmp_path / "x.exr")!r}
-        result["composite"] = attempt(bpy.ops.occlux.composite, filepath=x)
-        result["groups"] = len(bpy.data.node_groups)
-        """,
+        CAMERA_AND_WORLD
+        + f"""
+import glob, tempfile
+s = scene.occlux
+s.output_dir = {str(out) + "/"!r}
+KINDS = ("objects", "volumes", "materials", "images", "node_groups", "scenes", "worlds",
+         "cameras", "lights")
+def counts():
+    return [len(getattr(bpy.data, kind)) for kind in KINDS]
+checks = lambda: set(glob.glob(tempfile.gettempdir() + "/occlux-check-*"))
+before, checks_before = counts(), checks()
+outcomes = {{}}
+for op in ("import_volume", "compute_ao", "render_dos", "check_cycles"):
+    for case, path in (("missing", {str(tmp_path / "missing.nrrd")!r}),
+                       ("unsupported", {str(tmp_path / "notes.txt")!r}),
+                       ("short", {str(tmp_path / "short.raw")!r}),
+                       ("huge", {str(tmp_path / "huge.nrrd")!r})):
+        s.volume_path = path
+        outcomes[op + " " + case] = attempt(getattr(bpy.ops.occlux, op))
+s.volume_path = {str(SHARED / "tooth.nrrd")!r}
+s.memory_budget_mb = 5  # the tooth needs 5.9 MB as float32
+outcomes["budget"] = attempt(bpy.ops.occlux.compute_ao)
+s.memory_budget_mb = 2048
+s.ao_method, s.ao_radius, s.device = "exact", 4, "cpu"
+for op in ("compute_ao", "render_dos", "check_cycles"):
+    outcomes[op + " cancel"] = [attempt(getattr(bpy.ops.occlux, op), cancel_after=2), s.status]
+scene.camera = None
+outcomes["no camera"] = attempt(bpy.ops.occlux.check_cycles)
+outcomes["dos no camera"] = attempt(bpy.ops.occlux.render_dos)
+result["outcomes"] = outcomes
+result["unchanged"] = before == counts()
+result["check_folders_left"] = sorted(checks() - checks_before)
+x = {str(tmp_path / "x.exr")!r}
+result["composite"] = attempt(bpy.ops.occlux.composite, filepath=x)
+result["groups"] = len(bpy.data.node_groups)
+""",
     )
-    missing, unsupported, short = result["outcomes"]
-    assert "no volume file" in missing and "missing.nrrd" in missing
-    assert "notes.txt" in unsupported, unsupported
-    assert "short.raw holds 100 bytes" in short, short
+    outcomes = result["outcomes"]
+    for op in ("import_volume", "compute_ao", "render_dos", "check_cycles"):
+        missing, unsupported = outcomes[f"{op} missing"], outcomes[f"{op} unsupported"]
+        assert "no volume file" in missing and "missing.nrrd" in missing, missing
+        assert "notes.txt" in unsupported, unsupported
+        short = outcomes[f"{op} short"]  # the check's message is the core's loader's
+        assert "short.raw" in short and "100 bytes" in short and "262144" in short, short
+        huge = outcomes[f"{op} huge"]
+        assert "4096 x 4096 x 4096 voxels need 262144 MB" in huge, huge
+        assert "over the memory budget of 2048 MB" in huge, huge
+    assert "over the memory budget of 5 MB" in outcomes["budget"], outcomes["budget"]
+    labels = {"compute_ao": "Compute AO", "render_dos": "Render DOS"}
+    for op, label in {**labels, "check_cycles": "Check Against Cycles"}.items():
+        assert outcomes[f"{op} cancel"] == [["CANCELLED"], f"{label}: cancelled, nothing was added"]
+    assert "no active camera" in outcomes["no camera"], outcomes["no camera"]
+    assert "no active camera" in outcomes["dos no camera"], outcomes["dos no camera"]
     assert "no EXR file" in result["composite"]
     assert result["unchanged"] and result["groups"] == 0, output
-    assert not (tmp_path / "out").exists() or not any((tmp_path / "out").iterdir())
+    assert result["check_folders_left"] == [], "the check's temporary files are removed"
+    assert not out.exists() or not any(out.iterdir()), sorted(out.iterdir())
 
 
 def test_composite_builds_the_compositor_group(extension: Path, tmp_path: Path) -> None:
@@ -203,3 +293,356 @@ def test_composite_builds_the_compositor_group(extension: Path, tmp_path: Path) 
     assert result["image_to"] == "ShaderNodeMix"
     assert "no layer 'dos'" in result["bad"], result["bad"]
     assert result["groups"] == 1, "the failed request left no node group behind"
+
+
+@pytest.mark.parametrize(
+    ("source", "method", "shading"),
+    [("phantom", "cdf", "ALBEDO"), ("tooth", "gauss", "EMISSION")],
+)
+def test_compute_ao_adds_a_volume_shaded_by_its_ao_grid(
+    extension: Path, tmp_path: Path, openvdb, source: str, method: str, shading: str
+) -> None:
+    if source == "phantom":
+        path, preset = phantom_npy(tmp_path), "ct-soft-tissue"
+    else:
+        path, preset = SHARED / "tooth.nrrd", "ct-bone"
+    out = tmp_path / "out"
+    result, output = blender(
+        extension,
+        tmp_path / "user",
+        f"""
+        s = bpy.context.scene.occlux
+        s.volume_path = {str(path)!r}
+        s.preset = {preset!r}
+        s.output_dir = {str(out) + "/"!r}
+        s.ao_method, s.ao_radius, s.ao_shading, s.device = {method!r}, 4, {shading!r}, "cpu"
+        s.ao_factor = 0.7
+        result["op"] = list(bpy.ops.occlux.compute_ao())
+        obj = bpy.data.objects[{path.stem + "-ao"!r}]
+        result["grids"] = sorted(g.name for g in obj.data.grids)
+        result["filepath"] = obj.data.filepath
+        result["status"] = s.status
+        tree = obj.data.materials[0].node_tree
+        shader = next(n for n in tree.nodes if n.bl_idname == "ShaderNodeVolumePrincipled")
+        ao = next(n for n in tree.nodes
+                  if n.bl_idname == "ShaderNodeAttribute" and n.attribute_name == "ao")
+        result["ao_to"] = [l.to_node.bl_idname for l in ao.outputs["Fac"].links]
+        result["color_from"] = shader.inputs["Color"].links[0].from_node.bl_idname
+        emission = shader.inputs["Emission Strength"].links
+        result["emission_from"] = emission[0].from_node.bl_idname if emission else None
+        result["factor"] = tree.nodes["Occlux AO factor"].outputs[0].default_value
+        s.ao_factor = 0.25  # the panel's slider moves the material's factor
+        result["factor_after"] = tree.nodes["Occlux AO factor"].outputs[0].default_value
+        """,
+    )
+    assert result["op"] == ["FINISHED"], output
+    assert result["grids"] == ["ao", "density", "value"]
+    assert result["filepath"] == str(out / f"{path.stem}-ao.vdb")
+    assert sorted(p.name for p in out.iterdir()) == [f"{path.stem}-ao.vdb"], "no temporary left"
+    assert "AO" in result["status"] and "radius 4" in result["status"]
+    if shading == "ALBEDO":
+        assert result["ao_to"] == ["ShaderNodeMix"] and result["emission_from"] is None
+        assert result["color_from"] == "ShaderNodeMix"
+    else:
+        assert result["ao_to"] == ["ShaderNodeMath"] and result["emission_from"] == "ShaderNodeMath"
+        assert result["color_from"] == "ShaderNodeValToRGB"
+    assert result["factor"] == pytest.approx(0.7) and result["factor_after"] == pytest.approx(0.25)
+
+    # The `ao` grid is what occlux.ao_volume computes for the fitted volume (2 units wide).
+    volume = occlux.Volume.load(path)
+    scale = 2.0 / max(np.array(volume.dims) * np.array(volume.spacing))
+    fitted = occlux.Volume(volume.values, spacing=tuple(np.array(volume.spacing) * scale))
+    scene = occlux.Scene.from_toml(
+        '[volume]\nphantom = "sphere"\n[camera]\nposition = [0, -4, 0]\n'
+    )
+    scene.classification = occlux.Classification.preset(preset)
+    want = occlux.ao_volume(scene, method=method, radius=4, device="cpu", volume=fitted)["ao"]
+    grid = openvdb.read(str(out / f"{path.stem}-ao.vdb"), "ao")
+    got = np.zeros(volume.dims, dtype=np.float32)  # x, y, z
+    grid.copyToArray(got, ijk=(0, 0, 0))
+    np.testing.assert_allclose(got.transpose(2, 1, 0), want.values, atol=1e-6)
+    assert 0.0 <= want.values.min() < 0.9 and want.values.max() <= 1.0, "some voxels occluded"
+    assert grid.transform.voxelSize()[0] == pytest.approx(scale * volume.spacing[0], rel=1e-5)
+
+
+def test_jobs_run_on_a_thread_and_cancel_without_adding_anything(
+    extension: Path, tmp_path: Path
+) -> None:
+    out = tmp_path / "out"
+    result, output = blender(
+        extension,
+        tmp_path / "user",
+        f"""
+        import threading, time
+        ops = sys.modules["bl_ext.user_default.occlux.operators"]
+        s = bpy.context.scene.occlux
+        s.volume_path = {str(SHARED / "tooth.nrrd")!r}
+        s.output_dir = {str(out) + "/"!r}
+        s.ao_method, s.ao_radius, s.device = "exact", 6, "cpu"
+        before = len(bpy.data.objects), len(bpy.data.volumes), len(bpy.data.materials)
+        # ESC as the modal operator sees it: the progress callback answers False after two
+        # reports, the core raises "cancelled", the operator reports and adds nothing.
+        result["cancelled"] = attempt(bpy.ops.occlux.compute_ao, cancel_after=2)
+        result["status"] = s.status
+        result["unchanged"] = before == (
+            len(bpy.data.objects), len(bpy.data.volumes), len(bpy.data.materials))
+        # Without a window (headless) invoking runs the job synchronously.
+        result["invoked"] = sorted(bpy.ops.occlux.compute_ao("INVOKE_DEFAULT"))
+
+        # The modal path's thread: the main thread keeps running while the core computes,
+        # then cancels it mid-way as ESC does.
+        volume = occlux.Volume.load(s.volume_path)
+        scene = occlux.Scene.from_toml(ops.AO_SCENE)
+        progress = ops.JobProgress()
+        work = lambda p: occlux.ao_volume(
+            scene, method="exact", radius=6, device="cpu", volume=volume, progress=p)
+        run = ops.BackgroundRun(work, progress)
+        result["other_thread"] = run.thread is not threading.current_thread()
+        result["polled_while_running"] = bpy.types.OCCLUX_OT_compute_ao.poll(bpy.context)
+        polls = 0
+        while run.running:
+            polls += 1
+            if progress.fraction > 0.1:
+                progress.cancel.set()
+            time.sleep(0.01)
+        result["polls"] = polls
+        result["fraction"] = progress.fraction
+        result["error"] = repr(run.error)
+        result["active"] = len(ops.ACTIVE)
+        result["polled_after"] = bpy.types.OCCLUX_OT_compute_ao.poll(bpy.context)
+        """,
+    )
+    assert result["cancelled"] == ["CANCELLED"], output
+    assert "Compute AO: cancelled, nothing was added" in result["status"]
+    assert "cancelled, nothing was added" in output, "the warning reaches the report area"
+    assert result["unchanged"], "a cancelled job adds no object, volume or material"
+    assert result["invoked"] == ["FINISHED"]
+    assert sorted(p.name for p in out.iterdir()) == ["tooth-ao.vdb"], "the cancel wrote nothing"
+    assert result["other_thread"] and result["polls"] > 1
+    assert result["polled_while_running"] is False, "one job at a time"
+    assert 0.1 < result["fraction"] < 1.0, result["fraction"]
+    assert result["error"] == "OccluxError('cancelled')"
+    assert result["active"] == 0 and result["polled_after"] is True
+
+
+SUN = """
+sun = bpy.data.objects.new("Sun", bpy.data.lights.new("Sun", "SUN"))
+scene.collection.objects.link(sun)
+sun.data.energy, sun.data.color, sun.data.angle = 3.0, (1.0, 0.95, 0.9), 0.0
+sun.rotation_mode = "QUATERNION"
+sun.rotation_quaternion = Vector((-0.3, -1.0, 1.2)).to_track_quat("Z", "Y")
+"""
+
+
+@pytest.mark.parametrize("estimator", ["ambient", "single"])
+def test_check_against_cycles_agrees_and_reports_beside_the_blend_file(
+    extension: Path, tmp_path: Path, estimator: str
+) -> None:
+    blend = tmp_path / "project" / "scene.blend"
+    blend.parent.mkdir()
+    result, output = blender(
+        extension,
+        tmp_path / "user",
+        CAMERA_AND_WORLD
+        + (SUN if estimator == "single" else "")
+        + f"""
+s = scene.occlux
+s.volume_path = {str(phantom_npy(tmp_path))!r}
+s.preset = "ct-soft-tissue"
+s.output_dir = {str(tmp_path / "out") + "/"!r}
+s.check_estimator, s.check_size, s.check_spp, s.check_seeds = {estimator!r}, 48, 128, 32
+bpy.ops.wm.save_as_mainfile(filepath={str(blend)!r})
+objects = sorted(o.name for o in bpy.data.objects)
+result["op"] = list(bpy.ops.occlux.check_cycles())
+result["panel"] = [s.check_rmse, s.check_rmse_over_noise, s.check_rms_z, s.check_agrees]
+result["report"] = s.check_report
+image = bpy.data.images["phantom-{estimator}-zmap.png"]
+result["image_size"] = list(image.size)
+result["unchanged"] = objects == sorted(o.name for o in bpy.data.objects)
+result["scenes"] = [x.name for x in bpy.data.scenes]
+""",
+    )
+    assert result["op"] == ["FINISHED"], output
+    report_path = Path(result["report"])
+    assert report_path == blend.parent / f"phantom-{estimator}-report.json"
+    report = json.loads(report_path.read_text())
+    assert (blend.parent / f"phantom-{estimator}-zmap.png").is_file()
+    assert result["image_size"] == [48, 36], "the error map at the check's size, render aspect"
+    figures = [report[k] for k in ("rmse", "rmse_over_noise", "rms_z", "mean_z")]
+    assert all(np.isfinite(figures)) and report["pixels"] > 500, report
+    # The agreement criteria of tests/python/test_cycles.py.
+    assert oc.RMS_Z_RANGE[0] <= report["rms_z"] <= oc.RMS_Z_RANGE[1], report
+    assert abs(report["mean_z"]) <= oc.MAX_ABS_MEAN_Z, report
+    assert report["fraction_over_3"] <= oc.MAX_FRACTION_OVER_3, report
+    assert 0.0 < report["rmse"] and report["rmse_over_noise"] < 1.5, report
+    rmse, over_noise, rms_z, agrees = result["panel"]
+    assert rmse == pytest.approx(report["rmse"], rel=1e-5) and agrees is True
+    assert over_noise == pytest.approx(report["rmse_over_noise"], rel=1e-5)
+    assert rms_z == pytest.approx(report["rms_z"], rel=1e-5)
+    assert result["unchanged"] and result["scenes"] == ["Scene"], "the harness cleaned up"
+
+
+def test_render_dos_writes_the_exr_layers_for_the_compositor(
+    extension: Path, tmp_path: Path
+) -> None:
+    out = tmp_path / "out"
+    result, output = blender(
+        extension,
+        tmp_path / "user",
+        CAMERA_AND_WORLD
+        + f"""
+import occlux.cycles as oc
+s = scene.occlux
+s.volume_path = {str(phantom_npy(tmp_path))!r}
+s.preset = "ct-soft-tissue"
+s.output_dir = {str(out) + "/"!r}
+s.device = "cpu"
+s.dos_theta_deg, s.dos_grid, s.dos_distance = 30.0, 3, "approximate"
+s.dos_slice_distance = 0.05
+scene.render.resolution_percentage = 12  # 48 x 36
+result["op"] = list(bpy.ops.occlux.render_dos())
+result["exr"] = s.last_exr
+_, header = oc.read_channels(s.last_exr)
+oc.check_camera(scene, json.loads(header["occlux/camera"]))  # Blender's camera, as rendered
+result["method"] = header["occlux/method"]
+result["lighting"] = header["occlux/lighting"]
+result["composite"] = list(bpy.ops.occlux.composite(filepath=s.last_exr, layer="occlusion"))
+tree = scene.compositing_node_group
+image = next(n for n in tree.nodes if n.bl_idname == "CompositorNodeImage")
+result["occlusion_to"] = [l.to_node.bl_idname for l in image.outputs["occlusion"].links]
+# DOS is lit by the world alone: a sun is refused before anything is written.
+sun = bpy.data.objects.new("Sun", bpy.data.lights.new("Sun", "SUN"))
+scene.collection.objects.link(sun)
+s.output_dir = {str(tmp_path / "out2") + "/"!r}
+result["with_sun"] = attempt(bpy.ops.occlux.render_dos)
+""",
+    )
+    assert result["op"] == ["FINISHED"], output
+    exr = out / "phantom-dos.exr"
+    assert result["exr"] == str(exr) and sorted(p.name for p in out.iterdir()) == [exr.name]
+    assert "theta_deg: 30.0, grid: 3" in result["method"], result["method"]
+    assert "slice_distance: Some(0.05), distance: Approximate" in result["method"], result["method"]
+    assert "Ambient { radiance: Vec3(1.0, 0.9, 0.8) }" in result["lighting"], result["lighting"]
+    channels = oiio_read(exr)
+    assert sorted(channels) == sorted(
+        [f"beauty.{c}" for c in "RGBA"] + ["depth.Z"] + [f"dos.{c}" for c in "RGBA"]
+        + ["occlusion.Y"]
+    )  # fmt: skip
+    assert channels["occlusion.Y"].shape == (36, 48)
+    alpha, occlusion = channels["beauty.A"], channels["occlusion.Y"]
+    inside = alpha > 0.5
+    assert inside.sum() > 300 and np.isfinite(channels["dos.R"]).all()
+    assert 0.0 <= occlusion.min() and occlusion.max() <= 1.0 + 1e-3
+    assert occlusion[inside].mean() < 0.95, "the phantom occludes its own ambient light"
+    assert result["composite"] == ["FINISHED"] and result["occlusion_to"] == ["ShaderNodeMix"]
+    assert "light 'Sun'" in result["with_sun"] and "ambient" in result["with_sun"]
+    assert not (tmp_path / "out2").exists()
+
+
+def test_the_guide_figure_script_renders(tmp_path: Path) -> None:
+    """docs/make_blender_figure.py (the guide's five steps, then Cycles), at a tiny size."""
+    png = tmp_path / "figure.png"
+    script = REPO / "docs" / "make_blender_figure.py"
+    args = ["--out", str(png), "--size", "40", "40", "--samples", "2"]
+    run = subprocess.run(
+        [sys.executable, str(script), *args], capture_output=True, text=True, timeout=300
+    )
+    assert run.returncode == 0, run.stdout + run.stderr
+    assert "AO (cdf, radius 8) of tooth.nrrd" in run.stdout, run.stdout
+    pixels = oiio_read(png)
+    assert sorted(pixels) == ["A", "B", "G", "R"] and pixels["R"].shape == (40, 40)
+    assert pixels["R"].std() > 0.01, "the tooth stands out from the background"
+
+
+def test_the_modal_path_polls_the_thread_and_esc_cancels(extension: Path, tmp_path: Path) -> None:
+    """invoke and modal as Blender's event loop drives them, with a stand-in window manager
+    (a headless Blender has no window to run modal operators in): timer events update the
+    progress until the thread ends, ESC cancels it."""
+    out = tmp_path / "out"
+    result, output = blender(
+        extension,
+        tmp_path / "user",
+        f"""
+        import time
+        from pathlib import Path
+        from types import SimpleNamespace
+        ops = sys.modules["bl_ext.user_default.occlux.operators"]
+        calls = []
+
+        class WindowManager:
+            windows = []
+            def event_timer_add(self, step, window):
+                calls.append("timer_add")
+                return "timer"
+            def event_timer_remove(self, timer):
+                calls.append("timer_remove")
+            def modal_handler_add(self, op):
+                calls.append("modal_handler_add")
+            def progress_begin(self, lo, hi):
+                calls.append("progress_begin")
+            def progress_update(self, value):
+                calls.append(round(value, 3))
+            def progress_end(self):
+                calls.append("progress_end")
+
+        class ComputeAO(ops.OccluxJob):  # the operator's methods on a plain object
+            bl_label = ops.OCCLUX_OT_compute_ao.bl_label
+            prepare = ops.OCCLUX_OT_compute_ao.prepare
+            finish = ops.OCCLUX_OT_compute_ao.finish
+            cancel_after = 0
+            def report(self, kind, message):
+                calls.append((sorted(kind)[0], message))
+
+        context = SimpleNamespace(
+            window="window", window_manager=WindowManager(), scene=bpy.context.scene)
+        timer = SimpleNamespace(type="TIMER", value="NOTHING")
+        esc = SimpleNamespace(type="ESC", value="PRESS")
+        s = bpy.context.scene.occlux
+        s.volume_path = {str(SHARED / "tooth.nrrd")!r}
+        s.output_dir = {str(out) + "/"!r}
+        s.ao_method, s.ao_radius, s.device = "exact", 8, "cpu"
+
+        def drive(op, esc_at=None):
+            state = op.invoke(context, None)
+            states, statuses = [state], []
+            while state == {{"RUNNING_MODAL"}}:
+                time.sleep(0.02)
+                if esc_at is not None and op._run.progress.fraction > esc_at:
+                    state = op.modal(context, esc)
+                    esc_at = None
+                else:
+                    state = op.modal(context, timer)
+                states.append(state)
+                statuses.append(s.status)
+            return sorted(state), len(states), statuses
+
+        objects = len(bpy.data.objects), len(bpy.data.volumes), len(bpy.data.materials)
+        result["cancel"] = drive(ComputeAO(), esc_at=0.05)
+        result["cancel_calls"] = list(calls)
+        result["unchanged"] = objects == (
+            len(bpy.data.objects), len(bpy.data.volumes), len(bpy.data.materials))
+        out = Path({str(out)!r})
+        result["files_after_cancel"] = sorted(p.name for p in out.glob("*"))
+        calls.clear()
+        s.ao_method, s.ao_radius = "cdf", 4
+        result["done"] = drive(ComputeAO())
+        result["done_calls"] = list(calls)
+        result["object"] = "tooth-ao" in bpy.data.objects
+        """,
+    )
+    state, steps, statuses = result["cancel"]
+    assert state == ["CANCELLED"] and steps > 2, result["cancel"]
+    assert "Compute AO: cancelling" in statuses, statuses
+    calls = result["cancel_calls"]
+    assert calls[:3] == ["timer_add", "progress_begin", "modal_handler_add"], calls
+    assert ["WARNING", "Compute AO: cancelled, nothing was added"] in calls, calls
+    assert calls.index("timer_remove") < calls.index("progress_end"), calls
+    assert result["unchanged"] and result["files_after_cancel"] == [], output
+    state, steps, statuses = result["done"]
+    assert state == ["FINISHED"] and result["object"], result["done"]
+    assert sorted(p.name for p in out.iterdir()) == ["tooth-ao.vdb"]
+    calls = result["done_calls"]
+    updates = [c for c in calls if isinstance(c, float)]
+    assert updates and all(0.0 <= u <= 1.0 for u in updates), calls
+    assert calls[-2:][0] == "progress_end" and calls[-1][0] == "INFO", calls
+    assert statuses[-1].startswith("AO (cdf, radius 4) of tooth.nrrd"), statuses
