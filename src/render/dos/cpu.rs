@@ -4,6 +4,7 @@ use super::{finish, material, DosInput, DosSetup, Formulation};
 use crate::camera::intersect_box;
 use crate::error::{Error, Result};
 use crate::progress::Progress;
+use crate::render::occupancy::Occupancy;
 use crate::render::raycast::cpu::emitted;
 use crate::render::{RenderImage, BACKGROUND_DEPTH};
 use glam::{Vec2, Vec3};
@@ -33,6 +34,16 @@ struct Eye {
 
 /// Renders the image on the CPU.
 pub fn render(input: &DosInput, progress: &dyn Progress) -> Result<RenderImage> {
+    // Cells where no sample can have matter: their slabs pass the light on unchanged, with no
+    // sample taken (the ray caster's empty-space skipping, here per pixel and slab).
+    render_skipping(input, &Occupancy::build(input.volume, input.lut), progress)
+}
+
+fn render_skipping(
+    input: &DosInput,
+    occupancy: &Occupancy,
+    progress: &dyn Progress,
+) -> Result<RenderImage> {
     let setup = input.setup()?;
     let cam = input.camera;
     let (width, height) = (cam.width as usize, cam.height as usize);
@@ -88,9 +99,14 @@ pub fn render(input: &DosInput, progress: &dyn Progress) -> Result<RenderImage> 
                     );
                 }
                 for (i, (e, v)) in eye_row.iter_mut().zip(visibility).enumerate() {
-                    let tau = slab(input, &setup, &rays[i + width * j], k, v, e);
+                    let tau = slab(input, &setup, occupancy, &rays[i + width * j], k, v, e);
                     for (plane, length) in setup.ring_lengths.iter().enumerate() {
-                        next_rows[plane * width + i] = v * (-tau * length).exp();
+                        // exp(-0) = 1 exactly: empty space passes the light on as it is.
+                        next_rows[plane * width + i] = if tau > 0.0 {
+                            v * (-tau * length).exp()
+                        } else {
+                            v
+                        };
                     }
                 }
             });
@@ -186,7 +202,15 @@ fn cone_average(
 /// Composites slab k of one pixel into its eye buffer, lit with visibility `v`; returns the
 /// slab's tau = sigma_t * (fraction of the slab's depth inside the box) for the next slab.
 #[inline]
-fn slab(input: &DosInput, setup: &DosSetup, ray: &PixelRay, k: u32, v: f32, eye: &mut Eye) -> f32 {
+fn slab(
+    input: &DosInput,
+    setup: &DosSetup,
+    occupancy: &Occupancy,
+    ray: &PixelRay,
+    k: u32,
+    v: f32,
+    eye: &mut Eye,
+) -> f32 {
     let d = setup.slice_distance;
     let z0 = setup.first_depth + k as f32 * d;
     let ta = (z0 / ray.depth_rate).max(ray.span.0);
@@ -196,6 +220,9 @@ fn slab(input: &DosInput, setup: &DosSetup, ray: &PixelRay, k: u32, v: f32, eye:
     }
     let dt = tb - ta;
     let p = ray.origin + (0.5 * (ta + tb)) * ray.dir;
+    if !occupancy.occupied(occupancy.cell_of(input.volume.to_index(p))) {
+        return 0.0;
+    }
     let optical = material(input.volume, input.lut, &input.params.clip_planes, p);
     if optical.sigma_t <= 0.0 && optical.emission == Vec3::ZERO {
         return 0.0;
@@ -215,4 +242,50 @@ fn slab(input: &DosInput, setup: &DosSetup, ray: &PixelRay, k: u32, v: f32, eye:
     }
     eye.transmittance = next;
     optical.sigma_t * dt * ray.depth_rate / d
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::camera::{Camera, Projection};
+    use crate::classify::presets::preset;
+    use crate::lights::{Light, Lighting};
+    use crate::progress::NoProgress;
+    use crate::render::dos::DosParams;
+    use crate::volume::phantom;
+
+    #[test]
+    fn skipping_empty_cells_changes_no_pixel() {
+        let volume = phantom::ct(40).unwrap();
+        let lut = preset("ct-bone").unwrap().bake(&volume);
+        let camera = Camera::look_at(
+            Vec3::new(2.5, -3.0, 1.5),
+            Vec3::ZERO,
+            Vec3::Z,
+            Projection::Perspective { fov_y: 0.7 },
+            32,
+            32,
+        )
+        .unwrap();
+        let lighting = Lighting {
+            lights: vec![Light::Ambient {
+                radiance: Vec3::ONE,
+            }],
+            background: Vec3::splat(0.1),
+        };
+        let params = DosParams::default();
+        let input = DosInput {
+            volume: &volume,
+            lut: &lut,
+            camera: &camera,
+            lighting: &lighting,
+            params: &params,
+        };
+        let built = Occupancy::build(&volume, &lut);
+        assert!(built.flags().contains(&0), "nothing to skip");
+        let skipping = render_skipping(&input, &built, &NoProgress).unwrap();
+        let everywhere =
+            render_skipping(&input, &Occupancy::everywhere(&volume), &NoProgress).unwrap();
+        assert_eq!(skipping, everywhere);
+    }
 }
