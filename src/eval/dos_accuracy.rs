@@ -67,6 +67,10 @@ pub struct AccuracyRow {
     pub ambient_rel_rmse: f64,
     /// The cone reference's own noise: relative RMS of its standard error.
     pub cone_rel_noise: f64,
+    /// Mean of the `occlusion` layer over the pixels whose opacity reaches 0.5: how much light
+    /// the cone lets through at the visible surface (the paper's Figure 5: larger theta and a
+    /// finer grid let more distant occluders count, so it falls).
+    pub mean_occlusion: f64,
     pub dos_ms: f64,
 }
 
@@ -118,6 +122,20 @@ pub fn relative_error(image: &RenderImage, reference: &ReferenceImage) -> Result
         bias: sum_image / sum - 1.0,
         noise: (noise / count as f64).sqrt() / mean,
     })
+}
+
+/// Mean occlusion factor over the pixels whose opacity reaches 0.5 (NaN if none does).
+pub fn mean_occlusion(image: &RenderImage) -> f64 {
+    let Some(occlusion) = &image.occlusion else {
+        return f64::NAN;
+    };
+    let (sum, count) = image
+        .rgba
+        .iter()
+        .zip(occlusion)
+        .filter(|(p, _)| p[3] >= 0.5)
+        .fold((0.0f64, 0usize), |(s, n), (_, o)| (s + *o as f64, n + 1));
+    sum / count as f64
 }
 
 /// The scene's lighting reduced to its ambient lights (radiance 1 when it has none).
@@ -221,12 +239,13 @@ pub fn run(args: &AccuracyArgs, quiet: bool) -> Result<()> {
                     cone_rel_bias: cone.bias,
                     ambient_rel_rmse: relative_error(&image, &ambient)?.rmse,
                     cone_rel_noise: cone.noise,
+                    mean_occlusion: mean_occlusion(&image),
                     dos_ms,
                 };
                 if !quiet {
                     println!(
                         "{:<12} theta {:>4}  n {:>2}  cone {:.4} (bias {:+.4}, noise {:.4})  \
-                         ambient {:.4}  {:.0} ms",
+                         ambient {:.4}  occlusion {:.4}  {:.0} ms",
                         row.scene,
                         row.theta_deg,
                         row.grid,
@@ -234,6 +253,7 @@ pub fn run(args: &AccuracyArgs, quiet: bool) -> Result<()> {
                         row.cone_rel_bias,
                         row.cone_rel_noise,
                         row.ambient_rel_rmse,
+                        row.mean_occlusion,
                         row.dos_ms
                     );
                 }
