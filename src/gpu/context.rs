@@ -129,9 +129,19 @@ pub fn shared_context() -> Result<Arc<GpuContext>> {
         .map_err(Error::Gpu)
 }
 
-/// `Auto`: the GPU if it opened, else the CPU with a one-line notice saying why.
+/// `Auto`: the GPU if it opened and is hardware, else the CPU with a one-line notice saying
+/// why. A software rasterizer (lavapipe, WARP) runs the kernels as CPU code, where Occlux's
+/// vectorised CPU twins are faster (measured: VAO 10x, DOS 20-50x, gradient DVR 1.4x).
 fn auto(opened: Result<Arc<GpuContext>>) -> (Compute, Option<String>) {
     match opened {
+        Ok(ctx) if ctx.adapter_info.device_type == wgpu::DeviceType::Cpu => (
+            Compute::Cpu,
+            Some(format!(
+                "the GPU adapter {} is a software rasterizer: using the CPU, which is faster \
+                 (--device gpu uses the adapter anyway)",
+                ctx.describe()
+            )),
+        ),
         Ok(ctx) => (Compute::Gpu(ctx), None),
         Err(e) => (
             Compute::Cpu,
@@ -155,7 +165,7 @@ fn gpu_message(e: Error) -> String {
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum, serde::Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum DeviceChoice {
-    /// A GPU adapter if one opens, else the CPU (with a notice).
+    /// A hardware GPU adapter if one opens, else the CPU (with a notice).
     #[default]
     Auto,
     /// A GPU adapter, or an error.
@@ -209,6 +219,26 @@ mod tests {
             cpu.describe(),
             format!("CPU: {} threads", rayon::current_num_threads())
         );
+    }
+
+    #[test]
+    fn auto_prefers_the_cpu_twins_to_a_software_rasterizer() {
+        let opened = shared_context();
+        let software = opened
+            .as_ref()
+            .is_ok_and(|c| c.adapter_info.device_type == wgpu::DeviceType::Cpu);
+        let hardware = opened.is_ok() && !software;
+        let (compute, notice) = auto(opened);
+        if hardware {
+            assert!(matches!(compute, Compute::Gpu(_)) && notice.is_none());
+        } else {
+            assert!(matches!(compute, Compute::Cpu));
+            let notice = notice.unwrap();
+            assert!(
+                !software || notice.contains("software rasterizer"),
+                "{notice}"
+            );
+        }
     }
 
     #[test]
