@@ -131,7 +131,8 @@ pub fn shared_context() -> Result<Arc<GpuContext>> {
 
 /// `Auto`: the GPU if it opened and is hardware, else the CPU with a one-line notice saying
 /// why. A software rasterizer (lavapipe, WARP) runs the kernels as CPU code, where Occlux's
-/// vectorised CPU twins are faster (measured: VAO 10x, DOS 20-50x, gradient DVR 1.4x).
+/// vectorised CPU twins are faster or as fast (measured on 2 cores: VAO 10x, DOS 20-50x, the
+/// ray caster about the same).
 fn auto(opened: Result<Arc<GpuContext>>) -> (Compute, Option<String>) {
     match opened {
         Ok(ctx) if ctx.adapter_info.device_type == wgpu::DeviceType::Cpu => (
