@@ -7,12 +7,12 @@
 //! early-termination threshold within float rounding are allowed up to 0.5% of the image).
 //! Measured on lavapipe: see the printed worst differences.
 
-use std::sync::Arc;
+mod common;
+use common::twins::{ctx, perspective};
 
 use glam::Vec3;
 use occlux::camera::{Camera, Projection};
 use occlux::classify::{presets, Classification};
-use occlux::gpu::{shared_context, GpuContext};
 use occlux::lights::{Light, Lighting};
 use occlux::progress::NoProgress;
 use occlux::render::raycast::{
@@ -20,12 +20,6 @@ use occlux::render::raycast::{
 };
 use occlux::render::{RenderImage, BACKGROUND_DEPTH};
 use occlux::volume::{phantom, Volume};
-
-fn ctx() -> Arc<GpuContext> {
-    shared_context().unwrap_or_else(|e| {
-        panic!("GPU tests need an adapter (apt-get install mesa-vulkan-drivers): {e}")
-    })
-}
 
 fn lighting() -> Lighting {
     Lighting {
@@ -44,20 +38,6 @@ fn lighting() -> Lighting {
         ],
         background: Vec3::new(0.05, 0.04, 0.03),
     }
-}
-
-fn perspective(side: u32) -> Camera {
-    Camera::look_at(
-        Vec3::new(3.2, -3.2, 2.6),
-        Vec3::ZERO,
-        Vec3::Z,
-        Projection::Perspective {
-            fov_y: 36f32.to_radians(),
-        },
-        side,
-        side,
-    )
-    .unwrap()
 }
 
 /// Renders on both twins and checks the stated tolerance; returns the worst RGBA difference.

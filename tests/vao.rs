@@ -8,18 +8,18 @@
 //!   2e-3 (pow, exp and the erf formulas of the two devices round differently);
 //! - fast vs exact over voxels with matter and a non-constant box: see `fast_estimates_*`.
 
+mod common;
+
 use glam::Vec3;
 use occlux::ao::vao::stats::{local_stats, LocalStats};
 use occlux::ao::vao::{self, exact, Estimator, FieldKind, ScalarField, UnitMap, VaoParams};
 use occlux::classify::presets::preset;
-use occlux::gpu::{shared_context, Compute};
+use occlux::gpu::Compute;
 use occlux::progress::NoProgress;
 use occlux::volume::{phantom, Volume};
 
 fn gpu() -> Compute {
-    Compute::Gpu(shared_context().unwrap_or_else(|e| {
-        panic!("GPU tests need an adapter (apt-get install mesa-vulkan-drivers): {e}")
-    }))
+    Compute::Gpu(common::twins::ctx())
 }
 
 fn field(values: Volume, outside: f32) -> ScalarField {
