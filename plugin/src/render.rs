@@ -51,6 +51,20 @@ impl PyRenderResult {
         unsafe { readonly_view(this.clone().into_any(), &image.depth, shape) }
     }
 
+    /// Directional occlusion shading's occlusion factor (1 = unoccluded) at the depth, float32,
+    /// shape (height, width); None for methods that compute none.
+    #[getter]
+    fn occlusion<'py>(this: &Bound<'py, Self>) -> PyResult<Option<Bound<'py, PyArray2<f32>>>> {
+        let image = &this.get().image;
+        let shape = (image.height as usize, image.width as usize);
+        image
+            .occlusion
+            .as_deref()
+            // SAFETY: as for `beauty`.
+            .map(|o| unsafe { readonly_view(this.clone().into_any(), o, shape) })
+            .transpose()
+    }
+
     #[getter]
     fn width(&self) -> u32 {
         self.image.width

@@ -383,3 +383,19 @@ def test_ao_volume_refuses_bad_arguments_and_cancels() -> None:
         occlux.ao_volume(scene, radius=0, device="cpu")
     with pytest.raises(occlux.OccluxError, match="cancelled"):
         occlux.ao_volume(scene, radius=3, device="cpu", progress=lambda done, total: False)
+
+
+def test_dos_renders_expose_the_occlusion_layer_and_other_methods_none() -> None:
+    # DOS is lit by ambient light only: the scene up to its directional light, then DOS.
+    ambient_only = scene_text(size=(24, 20)).split('[[lights]]\ntype = "directional"')[0]
+    dos = ambient_only + '[render]\nmethod = "dos"\ntheta_deg = 60\ngrid = 3\n'
+    result = occlux.render(occlux.Scene.from_toml(dos), device="cpu")
+    occlusion = result.occlusion
+    assert occlusion is not None and occlusion.shape == (20, 24)
+    assert occlusion.min() >= 0.0 and occlusion.max() <= 1.0
+    # Where the volume is opaque the cone sees occluders; elsewhere nothing occludes.
+    opaque = result.beauty[..., 3] >= 0.5
+    assert opaque.any() and occlusion[opaque].mean() < 0.95
+    np.testing.assert_array_equal(occlusion[~opaque], 1.0)
+    gradient = occlux.render(occlux.Scene.from_toml(scene_text(size=(8, 8))), device="cpu")
+    assert gradient.occlusion is None

@@ -150,6 +150,11 @@ class RenderResult:
         does), shape ``(height, width)``."""
 
     @property
+    def occlusion(self) -> npt.NDArray[np.float32] | None:
+        """Directional occlusion shading's occlusion factor (1 = unoccluded) at the depth,
+        shape ``(height, width)``; ``None`` for methods that compute none."""
+
+    @property
     def width(self) -> int: ...
     @property
     def height(self) -> int: ...
