@@ -16,10 +16,10 @@ from . import nodes
 
 PRESETS = ("ct-bone", "ct-soft-tissue", "mri", "simulation", "boundary-2d")
 AO_METHODS = (
-    ("cdf", "CDF", "Normal-CDF estimate of the occluded fraction (the paper's default)"),
-    ("gauss", "Gauss", "Gaussian estimate from the local mean and variance"),
-    ("gauss-exact", "Gauss (exact)", "Gaussian estimate with the exact ball integral"),
-    ("penner", "Penner", "Penner's estimate from the local extremes"),
+    ("cdf", "CDF", "The CDF reconstruction t^beta from the local minimum, maximum and mean"),
+    ("gauss", "Gauss", "The normal CDF of the local mean and variance (Winitzki's erf)"),
+    ("gauss-exact", "Gauss (exact erf)", "The normal CDF with the exact erf"),
+    ("penner", "Penner", "Penner and Mitchell's Chebyshev bound: the baseline, too dark"),
     ("exact", "Exact", "Count the voxels in every ball: slow, CPU only, the reference"),
 )
 RAW_TYPES = ("uint8", "int8", "uint16", "int16", "uint32", "int32", "float32", "float64")
