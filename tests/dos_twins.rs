@@ -12,15 +12,14 @@
 //! 6x margin for other drivers' filtering.
 
 mod common;
-use common::twins::{ctx, perspective};
+use common::twins::{assert_same, ctx, inside, orthographic, perspective};
 
 use glam::Vec3;
-use occlux::camera::{Camera, Projection};
+use occlux::camera::Camera;
 use occlux::classify::{presets, Classification};
 use occlux::lights::{Light, Lighting};
 use occlux::progress::NoProgress;
 use occlux::render::dos::{cpu, gpu, ClipPlane, ConeDistance, DosInput, DosParams, Formulation};
-use occlux::render::{RenderImage, BACKGROUND_DEPTH};
 use occlux::volume::{phantom, Volume};
 
 fn lighting() -> Lighting {
@@ -50,55 +49,11 @@ fn compare(
     };
     let on_cpu = cpu::render(&input, &NoProgress).unwrap();
     let on_gpu = gpu::render(&ctx(), &input, &NoProgress).unwrap();
-    assert_same(&on_cpu, &on_gpu)
-}
-
-fn assert_same(a: &RenderImage, b: &RenderImage) -> f32 {
-    assert_eq!((a.width, a.height), (b.width, b.height));
-    let peak = a
-        .rgba
-        .iter()
-        .flat_map(|p| p[..3].iter().copied())
-        .fold(1.0f32, f32::max);
-    let tolerance = 1e-4 * peak;
     assert!(
-        a.rgba.iter().any(|p| p[3] > 0.5),
+        on_cpu.rgba.iter().any(|p| p[3] > 0.5),
         "the volume covers part of the image"
     );
-    let (occ_a, occ_b) = (a.occlusion.as_ref().unwrap(), b.occlusion.as_ref().unwrap());
-    let mut worst = 0.0f32;
-    let mut worst_occlusion = 0.0f32;
-    let mut outliers = 0;
-    for (i, (pa, pb)) in a.rgba.iter().zip(&b.rgba).enumerate() {
-        let diff = pa
-            .iter()
-            .zip(pb)
-            .map(|(x, y)| (x - y).abs())
-            .fold(0.0, f32::max);
-        let occlusion = (occ_a[i] - occ_b[i]).abs();
-        let depth_ok = (a.depth[i] == BACKGROUND_DEPTH) == (b.depth[i] == BACKGROUND_DEPTH)
-            && (a.depth[i] - b.depth[i]).abs() <= 1e-3;
-        assert!(
-            pb.iter().all(|x| x.is_finite()) && occ_b[i].is_finite(),
-            "pixel {i}: {pb:?}"
-        );
-        if diff > tolerance || !depth_ok || occlusion > 1e-4 {
-            outliers += 1;
-        } else {
-            worst = worst.max(diff);
-            worst_occlusion = worst_occlusion.max(occlusion);
-        }
-    }
-    let allowed = a.rgba.len() / 200;
-    assert!(
-        outliers <= allowed,
-        "{outliers} pixels differ beyond tolerance {tolerance} (allowed {allowed})"
-    );
-    println!(
-        "worst RGBA difference {worst:.3e} (peak {peak:.3}), worst occlusion difference \
-         {worst_occlusion:.3e}, {outliers} outliers"
-    );
-    worst
+    assert_same(&on_cpu, &on_gpu, 1e-4, Some(1e-4))
 }
 
 #[test]
@@ -149,27 +104,9 @@ fn orthographic_and_inside_cameras_agree() {
     let volume = phantom::marschner_lobb(33).unwrap();
     let classification = presets::preset("simulation").unwrap();
     let params = DosParams::default();
-    let ortho = Camera::look_at(
-        Vec3::new(0.3, -4.0, 0.2),
-        Vec3::ZERO,
-        Vec3::Z,
-        Projection::Orthographic { scale: 2.5 },
-        40,
-        32,
-    )
-    .unwrap();
+    let ortho = orthographic();
     compare(&volume, &classification, &ortho, &params);
-    let inside = Camera::look_at(
-        Vec3::new(0.1, -0.2, 0.05),
-        Vec3::new(1.0, 1.0, 0.3),
-        Vec3::Z,
-        Projection::Perspective {
-            fov_y: 70f32.to_radians(),
-        },
-        32,
-        40,
-    )
-    .unwrap();
+    let inside = inside();
     compare(&volume, &classification, &inside, &params);
     let rays = DosParams {
         formulation: Formulation::Rays,
