@@ -6,12 +6,12 @@
 //! elsewhere every estimate is exactly 1/2 or shades nothing.
 
 use crate::ao::reference::{ao_reference_at, AoReferenceParams, AoVariant};
-use crate::ao::vao::stats::local_stats;
-use crate::ao::vao::{self, exact, Estimator, FieldKind, ScalarField, VaoParams};
+use crate::ao::vao::estimate::openness;
+use crate::ao::vao::stats::{local_stats, LocalStats};
+use crate::ao::vao::{exact, Estimator, FieldKind, ScalarField};
 use crate::classify::Classification;
 use crate::error::{Error, Result};
 use crate::export::atomic::write_bytes_atomic;
-use crate::gpu::Compute;
 use crate::progress::NoProgress;
 use crate::scene::Scene;
 use crate::volume::Volume;
@@ -85,7 +85,20 @@ pub fn measure(
     params: &AccuracyParams,
 ) -> Result<AccuracyRow> {
     let field = ScalarField::new(volume, classification, params.field)?;
-    let voxels = sample_voxels(&field, volume, classification, params)?;
+    // Matter is positive extinction, whatever field the estimates run on.
+    let value_field_extinction;
+    let matter = match params.field {
+        FieldKind::Extinction => field.values.values(),
+        FieldKind::Value => {
+            value_field_extinction = classification.extinction(volume)?;
+            value_field_extinction.values()
+        }
+    };
+    // One set of statistics serves the sampling and every estimate, as `ao_volume` computes
+    // them (the same map onto [0, 1]), so the figures are those of the AO volumes.
+    let map = field.unit_map();
+    let stats = local_stats(&field, map, params.radius as usize, &NoProgress)?;
+    let voxels = sample_voxels(&field, matter, &stats, params)?;
     let exact = exact::exact_at(&field, params.radius, &voxels);
     let (mc, mc_err): (Vec<f32>, Vec<f32>) = if params.field == FieldKind::Extinction {
         let lut = classification.bake(volume);
@@ -108,20 +121,14 @@ pub fn measure(
     if !mc.is_empty() {
         agreements.push(agreement("exact", "monte-carlo", &exact, &mc));
     }
+    let [nx, ny, _] = field.values.dims();
     for estimator in FAST {
-        let ao = vao::ao_volume(
-            &Compute::Cpu,
-            &field,
-            &VaoParams {
-                radius: params.radius,
-                estimator,
-                variance: false,
-            },
-            &NoProgress,
-        )?;
         let at: Vec<f32> = voxels
             .iter()
-            .map(|&[i, j, k]| ao.openness.at(i, j, k))
+            .map(|&[i, j, k]| {
+                let n = i + nx * (j + ny * k);
+                openness(estimator, map.apply(field.values.at(i, j, k)), &stats.at(n))
+            })
             .collect();
         agreements.push(agreement(estimator.name(), "exact", &at, &exact));
         if !mc.is_empty() {
@@ -150,18 +157,10 @@ pub fn measure(
 /// constant.
 fn sample_voxels(
     field: &ScalarField,
-    volume: &Volume,
-    classification: &Classification,
+    matter: &[f32],
+    stats: &LocalStats,
     params: &AccuracyParams,
 ) -> Result<Vec<[usize; 3]>> {
-    let extinction = classification.extinction(volume)?;
-    let stats = local_stats(
-        field,
-        vao::UnitMap::IDENTITY,
-        params.radius as usize,
-        &NoProgress,
-    )?;
-    let matter = extinction.values();
     let mut candidates: Vec<usize> = (0..matter.len())
         .filter(|&i| matter[i] > 0.0 && stats.max[i] > stats.min[i])
         .collect();
