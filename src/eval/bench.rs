@@ -6,7 +6,6 @@
 
 use crate::error::{Error, Result};
 use crate::eval::dos_accuracy::ambient_only;
-use crate::export::atomic::write_bytes_atomic;
 use crate::gpu::{Compute, DeviceChoice};
 use crate::progress::NoProgress;
 use crate::render::dos::{self, DosInput, DosParams};
@@ -44,9 +43,8 @@ pub struct BenchRow {
     pub method: &'static str,
     pub device: String,
     pub size: u32,
-    pub median_ms: f64,
-    pub min_ms: f64,
-    pub max_ms: f64,
+    #[serde(flatten)]
+    pub timing: Timing,
     pub repeats: usize,
     /// Median time over gradient DVR's on the same device and size.
     pub ratio_to_gradient: f64,
@@ -105,7 +103,7 @@ pub fn run(args: &BenchArgs, quiet: bool) -> Result<()> {
             let mut camera = scene.camera;
             camera.width = size;
             camera.height = size;
-            let mut times: Vec<(&'static str, Vec<f64>)> = vec![];
+            let mut times: Vec<(&'static str, Timing)> = vec![];
             for (name, shading) in methods {
                 let params = RaycastParams {
                     shading,
@@ -150,28 +148,20 @@ pub fn run(args: &BenchArgs, quiet: bool) -> Result<()> {
             let gradient = times
                 .iter()
                 .find(|(name, _)| *name == "gradient")
-                .map_or(f64::NAN, |(_, t)| median(t));
-            for (name, times) in times {
+                .map_or(f64::NAN, |(_, t)| t.median_ms);
+            for (name, timing) in times {
                 let row = BenchRow {
                     method: name,
                     device: compute.describe(),
                     size,
-                    median_ms: median(&times),
-                    min_ms: times[0],
-                    max_ms: times[times.len() - 1],
+                    timing,
                     repeats: args.repeats,
-                    ratio_to_gradient: median(&times) / gradient,
+                    ratio_to_gradient: timing.median_ms / gradient,
                 };
                 if !quiet {
                     println!(
-                        "{:<9} {:>5}^2  {:>10.1} ms (min {:.1}, max {:.1})  {:>6.2}x gradient  {}",
-                        row.method,
-                        row.size,
-                        row.median_ms,
-                        row.min_ms,
-                        row.max_ms,
-                        row.ratio_to_gradient,
-                        row.device
+                        "{:<9} {:>5}^2  {}  {:>6.2}x gradient  {}",
+                        row.method, row.size, row.timing, row.ratio_to_gradient, row.device
                     );
                 }
                 rows.push(row);
@@ -184,13 +174,7 @@ pub fn run(args: &BenchArgs, quiet: bool) -> Result<()> {
         cpu_threads: rayon::current_num_threads(),
         rows: &rows,
     };
-    let json =
-        serde_json::to_string_pretty(&report).map_err(|e| Error::param("bench", e.to_string()))?;
-    write_bytes_atomic(&args.out, json.as_bytes())?;
-    if !quiet {
-        println!("wrote {}", args.out.display());
-    }
-    Ok(())
+    super::write_report(&args.out, &report, quiet)
 }
 
 /// The devices a benchmark times for `choice`: auto takes the CPU and, when an adapter
@@ -214,26 +198,44 @@ pub(crate) fn devices(choice: DeviceChoice, quiet: bool) -> Result<Vec<Compute>>
     Ok(devices)
 }
 
-/// Milliseconds of `repeats` runs of `run` after one untimed warm-up run (shader compilation
-/// and first-touch allocation), sorted.
-pub(crate) fn timed<T>(repeats: usize, run: impl Fn() -> Result<T>) -> Result<Vec<f64>> {
+/// Times of repeated runs, in milliseconds.
+#[derive(Serialize, Debug, Clone, Copy)]
+pub struct Timing {
+    pub median_ms: f64,
+    pub min_ms: f64,
+    pub max_ms: f64,
+}
+
+impl std::fmt::Display for Timing {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "{:>10.1} ms (min {:.1}, max {:.1})",
+            self.median_ms, self.min_ms, self.max_ms
+        )
+    }
+}
+
+/// Times `repeats` runs of `run` (at least one) after one untimed warm-up run (shader
+/// compilation and first-touch allocation).
+pub(crate) fn timed<T>(repeats: usize, run: impl Fn() -> Result<T>) -> Result<Timing> {
     run()?;
-    let mut times: Vec<f64> = (0..repeats)
+    let mut times: Vec<f64> = (0..repeats.max(1))
         .map(|_| {
             let t = Instant::now();
             run().map(|_| t.elapsed().as_secs_f64() * 1e3)
         })
         .collect::<Result<_>>()?;
     times.sort_by(f64::total_cmp);
-    Ok(times)
-}
-
-/// Median of sorted values.
-pub(crate) fn median(sorted: &[f64]) -> f64 {
-    let n = sorted.len();
-    if n % 2 == 1 {
-        sorted[n / 2]
+    let n = times.len();
+    let median = if n % 2 == 1 {
+        times[n / 2]
     } else {
-        0.5 * (sorted[n / 2 - 1] + sorted[n / 2])
-    }
+        0.5 * (times[n / 2 - 1] + times[n / 2])
+    };
+    Ok(Timing {
+        median_ms: median,
+        min_ms: times[0],
+        max_ms: times[n - 1],
+    })
 }

@@ -8,7 +8,6 @@
 //! lights only (radiance 1 when it has none), since DOS is lit by ambient light alone.
 
 use crate::error::{Error, Result};
-use crate::export::atomic::write_bytes_atomic;
 use crate::gpu::{Compute, DeviceChoice};
 use crate::lights::Light;
 use crate::progress::NoProgress;
@@ -276,11 +275,5 @@ pub fn run(args: &AccuracyArgs, quiet: bool) -> Result<()> {
         device: compute.describe(),
         rows: &rows,
     };
-    let json = serde_json::to_string_pretty(&report)
-        .map_err(|e| Error::param("dos-accuracy", e.to_string()))?;
-    write_bytes_atomic(&args.out, json.as_bytes())?;
-    if !quiet {
-        println!("wrote {}", args.out.display());
-    }
-    Ok(())
+    super::write_report(&args.out, &report, quiet)
 }

@@ -4,3 +4,18 @@ pub mod cycles;
 pub mod dos_accuracy;
 pub mod vao_accuracy;
 pub mod vao_bench;
+
+use crate::error::{Error, Result};
+use crate::export::atomic::write_bytes_atomic;
+use std::path::Path;
+
+/// Writes a report as pretty JSON, atomically, and says where unless `quiet`.
+pub(crate) fn write_report(path: &Path, report: &impl serde::Serialize, quiet: bool) -> Result<()> {
+    let json =
+        serde_json::to_string_pretty(report).map_err(|e| Error::param("report", e.to_string()))?;
+    write_bytes_atomic(path, json.as_bytes())?;
+    if !quiet {
+        println!("wrote {}", path.display());
+    }
+    Ok(())
+}

@@ -11,7 +11,6 @@ use crate::ao::vao::stats::{local_stats, LocalStats};
 use crate::ao::vao::{exact, Estimator, FieldKind, ScalarField};
 use crate::classify::Classification;
 use crate::error::{Error, Result};
-use crate::export::atomic::write_bytes_atomic;
 use crate::progress::NoProgress;
 use crate::scene::Scene;
 use crate::volume::Volume;
@@ -284,13 +283,7 @@ pub fn run(args: &AccuracyArgs, quiet: bool) -> Result<()> {
             }
         }
     }
-    let json =
-        serde_json::to_string_pretty(&rows).map_err(|e| Error::param("json", e.to_string()))?;
-    write_bytes_atomic(&args.out, json.as_bytes())?;
-    if !quiet {
-        println!("wrote {}", args.out.display());
-    }
-    Ok(())
+    super::write_report(&args.out, &rows, quiet)
 }
 
 fn print_row(row: &AccuracyRow) {

@@ -3,10 +3,9 @@
 //! warm-up, on a crop of a CT to the 256 x 256 x 113. Prints a table with t(r) / t(4)
 //! and writes JSON.
 
-use super::bench::{devices, median, timed};
+use super::bench::{devices, timed, Timing};
 use crate::ao::vao::{ao_volume, Estimator, FieldKind, ScalarField, VaoParams};
 use crate::error::{Error, Result};
-use crate::export::atomic::write_bytes_atomic;
 use crate::gpu::DeviceChoice;
 use crate::progress::NoProgress;
 use crate::scene::{Scene, SourceKind};
@@ -42,9 +41,8 @@ pub struct VaoBenchArgs {
 struct Row {
     device: String,
     radius: u32,
-    median_ms: f64,
-    min_ms: f64,
-    max_ms: f64,
+    #[serde(flatten)]
+    timing: Timing,
     /// Median over the median at the smallest radius timed on the same device.
     ratio_to_smallest_radius: f64,
 }
@@ -102,28 +100,20 @@ pub fn run(args: &VaoBenchArgs, quiet: bool) -> Result<()> {
                 estimator,
                 variance: false,
             };
-            let times = timed(args.repeats, || {
+            let timing = timed(args.repeats, || {
                 ao_volume(&compute, &field, &params, &NoProgress)
             })?;
-            let m = median(&times);
-            let base = *first.get_or_insert(m);
+            let base = *first.get_or_insert(timing.median_ms);
             let row = Row {
                 device: compute.describe(),
                 radius,
-                median_ms: m,
-                min_ms: times[0],
-                max_ms: times[times.len() - 1],
-                ratio_to_smallest_radius: m / base,
+                timing,
+                ratio_to_smallest_radius: timing.median_ms / base,
             };
             if !quiet {
                 println!(
-                    "r = {:>3}  {:>9.1} ms (min {:.1}, max {:.1})  x{:.3}  {}",
-                    row.radius,
-                    row.median_ms,
-                    row.min_ms,
-                    row.max_ms,
-                    row.ratio_to_smallest_radius,
-                    row.device
+                    "r = {:>3} {}  x{:.3}  {}",
+                    row.radius, row.timing, row.ratio_to_smallest_radius, row.device
                 );
             }
             rows.push(row);
@@ -137,11 +127,5 @@ pub fn run(args: &VaoBenchArgs, quiet: bool) -> Result<()> {
         repeats: args.repeats,
         rows: &rows,
     };
-    let json =
-        serde_json::to_string_pretty(&report).map_err(|e| Error::param("bench", e.to_string()))?;
-    write_bytes_atomic(&args.out, json.as_bytes())?;
-    if !quiet {
-        println!("wrote {}", args.out.display());
-    }
-    Ok(())
+    super::write_report(&args.out, &report, quiet)
 }
