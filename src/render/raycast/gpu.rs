@@ -102,6 +102,8 @@ pub struct GpuVolume<'a> {
     lut_buffer: wgpu::Buffer,
     cells: [usize; 3],
     occupancy_buffer: wgpu::Buffer,
+    /// A one-voxel texture of 1 that stands in for the AO bindings of renders without AO.
+    unit: VolumeTexture,
 }
 
 impl<'a> GpuVolume<'a> {
@@ -115,6 +117,10 @@ impl<'a> GpuVolume<'a> {
             lut_buffer: buffer::storage_buffer(ctx, "classification table", lut.data())?,
             cells: occupancy.cells(),
             occupancy_buffer: buffer::storage_buffer(ctx, "occupancy", occupancy.flags())?,
+            unit: VolumeTexture::upload(
+                ctx,
+                &Volume::new([1, 1, 1], Vec3::ONE, Vec3::ZERO, vec![1.0])?,
+            )?,
         })
     }
 }
@@ -161,14 +167,13 @@ pub fn render_uploaded(
     let max_rows = (ctx.limits.max_storage_buffer_binding_size / (width as u64 * 16)).max(1) as u32;
     let band_rows = height.div_ceil(MIN_BANDS).clamp(1, max_rows);
     let mut params = params(&input, &setup, uploaded.cells);
-    // Without AO volumes, a one-voxel texture stands in for each binding.
-    let unit = Volume::new([1, 1, 1], Vec3::ONE, Vec3::ZERO, vec![1.0])?;
-    let (openness, opacity) = match input.ao {
-        Some(ao) => (ao.openness, ao.opacity.unwrap_or(&unit)),
-        None => (&unit, &unit),
-    };
-    let openness = VolumeTexture::upload(ctx, openness)?;
-    let opacity = VolumeTexture::upload(ctx, opacity)?;
+    // The AO volumes of this render, uploaded; the volume's unit texture stands in for those
+    // it does not have.
+    let upload = |grid: Option<&Volume>| grid.map(|g| VolumeTexture::upload(ctx, g)).transpose();
+    let openness = upload(input.ao.map(|ao| ao.openness))?;
+    let opacity = upload(input.ao.and_then(|ao| ao.opacity))?;
+    let openness = openness.as_ref().unwrap_or(&uploaded.unit);
+    let opacity = opacity.as_ref().unwrap_or(&uploaded.unit);
     let mut row0 = 0;
     while row0 < height {
         let rows = band_rows.min(height - row0);
