@@ -83,7 +83,8 @@ enum Command {
         #[command(flatten)]
         output: OutputArgs,
     },
-    /// Time unshaded and gradient DVR on CPU and GPU (median after warm-up); table and JSON.
+    /// Time unshaded and gradient DVR and DOS (n = 2, 5, 13) on CPU and GPU (median after
+    /// warm-up), as ratios to gradient DVR; table and JSON.
     Bench(bench::BenchArgs),
     /// Time VAO volumes at several radii on CPU and GPU (median after warm-up); table and JSON.
     BenchAo(vao_bench::VaoBenchArgs),
@@ -157,11 +158,13 @@ enum Command {
         variance: bool,
         #[arg(short, long, default_value = "occlux-out")]
         out: PathBuf,
-        /// Where to compute: auto picks a GPU adapter if one opens, else the CPU.
+        /// Where to compute: auto picks a hardware GPU adapter if one opens, else the CPU.
         #[arg(long, value_enum, default_value = "auto")]
         device: DeviceChoice,
+        /// VDB value compression on top of active-mask compression.
         #[arg(long, value_enum, default_value = "zip")]
         compression: VdbCompression,
+        /// Store VDB values as half floats.
         #[arg(long)]
         half: bool,
     },
@@ -211,7 +214,7 @@ impl From<VdbCompression> for Compression {
 
 #[derive(clap::Args)]
 struct OutputArgs {
-    /// Where to compute: auto picks a GPU adapter if one opens, else the CPU.
+    /// Where to compute: auto picks a hardware GPU adapter if one opens, else the CPU.
     #[arg(long, value_enum, default_value = "auto")]
     device: DeviceChoice,
     /// Write EXR channels as float32 rather than float16.
