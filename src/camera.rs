@@ -7,9 +7,11 @@
 
 use crate::error::{Error, Result};
 use glam::Vec3;
+use serde::Serialize;
 
-/// Perspective or orthographic projection.
-#[derive(Clone, Copy, Debug, PartialEq)]
+/// Perspective or orthographic projection; as JSON `{"type": "perspective", "fov_y": ...}`.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+#[serde(tag = "type", rename_all = "lowercase")]
 pub enum Projection {
     /// Vertical field of view in radians.
     Perspective { fov_y: f32 },
@@ -18,7 +20,7 @@ pub enum Projection {
 }
 
 /// A camera and its image size.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
 pub struct Camera {
     pub position: Vec3,
     /// Unit vectors of the camera frame: `forward` into the scene, `right` and `up` on the image.
@@ -126,6 +128,15 @@ impl Camera {
             tan_large
         };
         Ok(2.0 * tan_y.atan())
+    }
+
+    /// The camera as JSON: its fields and the image plane's half extents (`half_extent`), what
+    /// the EXR header's `occlux/camera` and the Python package's scene description hold.
+    pub fn describe(&self) -> serde_json::Value {
+        let mut value = crate::json::tree(self);
+        let (hx, hy) = self.half_extent();
+        value["half_extent"] = serde_json::json!([hx, hy]);
+        value
     }
 
     /// Half extents of the image plane: tangents of the half angles (perspective) or half sizes

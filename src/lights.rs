@@ -3,9 +3,12 @@
 
 use crate::error::{Error, Result};
 use glam::Vec3;
+use serde::Serialize;
 
-/// One light. Radiometric quantities are RGB.
-#[derive(Clone, Copy, Debug, PartialEq)]
+/// One light. Radiometric quantities are RGB. As JSON: `{"type": "directional", "to_light":
+/// [x, y, z], "irradiance": [r, g, b]}` and so on.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+#[serde(tag = "type", rename_all = "lowercase")]
 pub enum Light {
     /// Uniform environment radiance from every direction.
     Ambient { radiance: Vec3 },
@@ -16,11 +19,46 @@ pub enum Light {
     Point { position: Vec3, intensity: Vec3 },
 }
 
+/// The kinds of light in the optical model.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(into = "&'static str")]
+pub enum LightKind {
+    Ambient,
+    Directional,
+    Point,
+}
+
+impl LightKind {
+    pub fn name(self) -> &'static str {
+        match self {
+            LightKind::Ambient => "ambient",
+            LightKind::Directional => "directional",
+            LightKind::Point => "point",
+        }
+    }
+}
+
+impl From<LightKind> for &'static str {
+    fn from(kind: LightKind) -> Self {
+        kind.name()
+    }
+}
+
+impl Light {
+    pub fn kind(&self) -> LightKind {
+        match self {
+            Light::Ambient { .. } => LightKind::Ambient,
+            Light::Directional { .. } => LightKind::Directional,
+            Light::Point { .. } => LightKind::Point,
+        }
+    }
+}
+
 /// Most lights a scene may hold (the GPU kernels keep them in a fixed uniform array).
 pub const MAX_LIGHTS: usize = 8;
 
 /// The lights of a scene and its background radiance.
-#[derive(Clone, Debug, Default, PartialEq)]
+#[derive(Clone, Debug, Default, PartialEq, Serialize)]
 pub struct Lighting {
     pub lights: Vec<Light>,
     pub background: Vec3,

@@ -1,20 +1,19 @@
 //! The `occlux` command line: thin; parses arguments and calls the library.
 
 use clap::{Parser, Subcommand};
-use indicatif::{ProgressBar, ProgressStyle};
-use occlux::ao::reference::{ao_reference, AoReferenceParams, AoVariant};
-use occlux::ao::vao::{self, FieldKind, ScalarField, VaoParams};
+use occlux::ao::commands::{ao_reference_volume, ao_volume};
+use occlux::ao::reference::AoVariant;
+use occlux::ao::vao::VaoParams;
 use occlux::eval::{bench, dos_accuracy, vao_accuracy, vao_bench};
 use occlux::export::exr::Precision;
-use occlux::export::vdb::{write_vdb, Compression, VdbGrid, VdbOptions};
-use occlux::gpu::{Compute, DeviceChoice};
-use occlux::pipeline::{self, OutputOptions, Rendered};
-use occlux::render::reference::{Estimator, ReferenceInput, ReferenceParams};
+use occlux::export::vdb::{Compression, VdbOptions};
+use occlux::gpu::DeviceChoice;
+use occlux::pipeline::{self, OutputOptions, Outputs};
+use occlux::render::reference::{self, Estimator, ReferenceParams};
 use occlux::scene::Scene;
-use occlux::volume::{self, LoadOptions, RawSpec, ScalarType, Volume};
+use occlux::volume::{self, LoadOptions, RawSpec, ScalarType};
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
-use std::time::Instant;
 
 /// The built-in demo scene: the CT-like phantom, soft-tissue preset, gradient shading.
 const DEMO_SCENE: &str = include_str!("../examples/demo.toml");
@@ -127,7 +126,7 @@ enum Command {
     AoReference {
         scene: PathBuf,
         #[arg(long, value_enum, default_value = "sphere")]
-        variant: AoVariantName,
+        variant: AoVariant,
         /// Samples per voxel.
         #[arg(long, default_value_t = 64)]
         samples: u32,
@@ -168,6 +167,13 @@ enum Command {
         #[arg(long)]
         half: bool,
     },
+    /// The rendering methods a scene can name, with their parameters (defaults, ranges), the
+    /// lights they take and the layers and grids they write.
+    Methods {
+        /// Print the registry as JSON (what the Python package and the add-on read).
+        #[arg(long)]
+        json: bool,
+    },
     /// Compare the scene's Monte Carlo reference with Cycles (runs the Python harness
     /// `occlux.cycles` in the venv that .ci/run creates: .venv, or $OCCLUX_PYTHON).
     CheckCycles {
@@ -180,13 +186,6 @@ enum Command {
         #[arg(short, long, default_value = "occlux-check")]
         out: PathBuf,
     },
-}
-
-#[derive(Clone, Copy, clap::ValueEnum)]
-enum AoVariantName {
-    Sphere,
-    Hemisphere,
-    TangentSphere,
 }
 
 #[derive(Clone, Copy, clap::ValueEnum)]
@@ -239,15 +238,13 @@ fn main() -> ExitCode {
 fn run(cli: Cli) -> occlux::Result<()> {
     let quiet = cli.quiet;
     match cli.command {
-        Command::Render { scene, out, output } => {
-            let parsed = Scene::from_file(&scene)?;
-            let options = output.options()?;
-            let (rendered, _) = render_scene(&parsed, &output, quiet)?;
-            let written =
-                pipeline::write_render(&rendered.image, &parsed, &out, &stem(&scene), &options)?;
-            report_written(&written, quiet);
-            Ok(())
-        }
+        Command::Render { scene, out, output } => output.run(
+            &Scene::from_file(&scene)?,
+            &pipeline::stem(&scene),
+            &out,
+            &Outputs::Render,
+            quiet,
+        ),
         Command::Export {
             scene,
             out,
@@ -255,40 +252,32 @@ fn run(cli: Cli) -> occlux::Result<()> {
             compression,
             half,
         } => {
-            let parsed = Scene::from_file(&scene)?;
-            let options = output.options()?;
             let vdb = VdbOptions {
                 compression: compression.into(),
                 half,
             };
-            let (rendered, volume) = render_scene(&parsed, &output, quiet)?;
-            let written = pipeline::export(
-                &rendered,
-                &parsed,
-                &volume,
+            output.run(
+                &Scene::from_file(&scene)?,
+                &pipeline::stem(&scene),
                 &out,
-                &stem(&scene),
-                &options,
-                &vdb,
-            )?;
-            report_written(&written, quiet);
-            Ok(())
+                &Outputs::Export(vdb),
+                quiet,
+            )
         }
-        Command::Demo { out, output } => {
-            let scene = Scene::parse(DEMO_SCENE, Path::new("."))?;
-            let options = output.options()?;
-            let (rendered, _) = render_scene(&scene, &output, quiet)?;
-            let written = pipeline::write_render(&rendered.image, &scene, &out, "demo", &options)?;
-            report_written(&written, quiet);
-            Ok(())
-        }
+        Command::Demo { out, output } => output.run(
+            &Scene::parse(DEMO_SCENE, Path::new("."))?,
+            "demo",
+            &out,
+            &Outputs::Render,
+            quiet,
+        ),
         Command::Info {
             file,
             raw_dims,
             raw_type,
             raw_spacing,
             grid,
-        } => info(&file, raw_dims, raw_type, raw_spacing, grid),
+        } => volume::info::print(&file, &load_options(raw_dims, raw_type, raw_spacing, grid)?),
         Command::Bench(args) => bench::run(&args, quiet),
         Command::BenchAo(args) => vao_bench::run(&args, quiet),
         Command::AoAccuracy(args) => vao_accuracy::run(&args, quiet),
@@ -318,7 +307,7 @@ fn run(cli: Cli) -> occlux::Result<()> {
                 seed,
                 g,
             };
-            reference(&scene, &params, &out, exposure, quiet)
+            reference::command::run(&scene, &params, &out, exposure, quiet)
         }
         Command::AoReference {
             scene,
@@ -348,8 +337,11 @@ fn run(cli: Cli) -> occlux::Result<()> {
                 compression: compression.into(),
                 half,
             };
-            let field = field.parse()?;
-            ao_volume_command(&scene, &params, field, device, &out, &vdb, quiet)
+            ao_volume(&scene, &params, field.parse()?, device, &out, &vdb, quiet)
+        }
+        Command::Methods { json } => {
+            methods(json);
+            Ok(())
         }
         Command::CheckCycles {
             scene,
@@ -360,161 +352,41 @@ fn run(cli: Cli) -> occlux::Result<()> {
     }
 }
 
-/// Computes a VAO volume with progress and timing, and writes it.
-fn ao_volume_command(
-    scene: &Path,
-    params: &VaoParams,
-    field: FieldKind,
-    device: DeviceChoice,
-    out: &Path,
-    vdb: &VdbOptions,
-    quiet: bool,
-) -> occlux::Result<()> {
-    params.validate()?;
-    let parsed = Scene::from_file(scene)?;
-    let (compute, notice) = Compute::resolve(device)?;
-    if let (Some(notice), false) = (notice, quiet) {
-        eprintln!("{notice}");
+/// Prints the method registry: JSON, or a summary per method.
+fn methods(json: bool) {
+    if json {
+        println!("{:#}", occlux::registry::describe());
+        return;
     }
-    let volume = parsed.load_volume()?;
-    let started = Instant::now();
-    let scalar = ScalarField::new(&volume, &parsed.classification, field)?;
-    let field_ms = started.elapsed().as_secs_f64() * 1e3;
-    // The exact count is a CPU reference whatever the device.
-    let on = if params.estimator == vao::Estimator::Exact {
-        Compute::Cpu.describe()
-    } else {
-        compute.describe()
-    };
-    let bar = progress_bar(quiet, 1, "ao volume");
-    let started = Instant::now();
-    let ao = vao::ao_volume(&compute, &scalar, params, &bar)?;
-    let ao_ms = started.elapsed().as_secs_f64() * 1e3;
-    bar.0.finish_and_clear();
-    if !quiet {
+    for spec in occlux::registry::METHODS {
+        let lights: Vec<&str> = spec.lights.iter().map(|l| l.name()).collect();
+        println!("{}: {}", spec.name, spec.summary);
         println!(
-            "{} AO volume, radius {} voxels: field in {field_ms:.1} ms, AO in {ao_ms:.1} ms on {on}",
-            params.estimator.name(),
-            params.radius
+            "  lights {}; layers {}; grids {}",
+            lights.join(", "),
+            spec.layers.join(", "),
+            if spec.grids.is_empty() {
+                "-".to_owned()
+            } else {
+                spec.grids.join(", ")
+            }
         );
-    }
-    let record = serde_json::json!({
-        "scene": scene.display().to_string(),
-        "method": params.estimator.name(),
-        "radius_voxels": params.radius,
-        "field": match field { FieldKind::Extinction => "extinction", FieldKind::Value => "value" },
-        "dims": volume.dims(),
-        "device": on,
-        "field_ms": field_ms,
-        "ao_ms": ao_ms,
-    });
-    let written = pipeline::write_ao(&ao, &record, out, &stem(scene), vdb)?;
-    report_written(&written, quiet);
-    Ok(())
-}
-
-/// Estimates a reference AO volume and writes it as OUT/STEM-ao-VARIANT.vdb.
-fn ao_reference_volume(
-    scene: &Path,
-    variant: AoVariantName,
-    samples: u32,
-    radius: Option<f32>,
-    seed: u64,
-    out: &Path,
-    quiet: bool,
-) -> occlux::Result<()> {
-    let (variant, name) = match variant {
-        AoVariantName::Sphere => (AoVariant::Sphere, "sphere"),
-        AoVariantName::Hemisphere => (AoVariant::Hemisphere, "hemisphere"),
-        AoVariantName::TangentSphere => (AoVariant::TangentSphere, "tangent-sphere"),
-    };
-    let parsed = Scene::from_file(scene)?;
-    let volume = parsed.load_volume()?;
-    let params = AoReferenceParams {
-        variant,
-        samples,
-        seed,
-        radius: radius.map(|r| r * volume.spacing().min_element()),
-    };
-    let lut = parsed.classification.bake(&volume);
-    let bar = progress_bar(quiet, volume.dims()[2] as u64, "sampling");
-    let started = Instant::now();
-    let ao = ao_reference(&volume, &lut, &params, &bar)?;
-    bar.0.finish_and_clear();
-    if !quiet {
-        println!(
-            "{name} AO reference, {samples} samples per voxel, in {:.2} s",
-            started.elapsed().as_secs_f64()
-        );
-    }
-    std::fs::create_dir_all(out).map_err(|e| occlux::Error::io(out, e))?;
-    let path = out.join(format!("{}-ao-{name}.vdb", stem(scene)));
-    let mut grids = vec![VdbGrid::from_volume("ao", &ao.openness)];
-    // A noiseless estimate (e.g. every tangent-sphere sample tied) has no error grid.
-    if ao.stderr.values().iter().any(|&e| e > 0.0) {
-        grids.push(VdbGrid::from_volume("ao_stderr", &ao.stderr));
-    }
-    write_vdb(&path, &grids, &VdbOptions::default())?;
-    report_written(&[path], quiet);
-    Ok(())
-}
-
-/// Renders a Monte Carlo reference with progress, and writes it.
-fn reference(
-    scene_path: &Path,
-    params: &ReferenceParams,
-    out: &Path,
-    exposure: f32,
-    quiet: bool,
-) -> occlux::Result<()> {
-    params.validate()?;
-    let scene = Scene::from_file(scene_path)?;
-    let volume = scene.load_volume()?;
-    let lut = scene.classification.bake(&volume);
-    let bar = progress_bar(quiet, scene.camera.height as u64, "sampling");
-    let started = Instant::now();
-    let input = ReferenceInput {
-        volume: &volume,
-        lut: &lut,
-        camera: &scene.camera,
-        lighting: &scene.lighting,
-        params,
-    };
-    let image = occlux::render::reference::render(&input, &bar)?;
-    bar.0.finish_and_clear();
-    if !quiet {
-        println!(
-            "{} reference, {} spp, {}x{} in {:.2} s",
-            params.estimator.name(),
-            params.spp,
-            image.width,
-            image.height,
-            started.elapsed().as_secs_f64()
-        );
-    }
-    let stem = format!("{}-{}", stem(scene_path), params.estimator.name());
-    let written = pipeline::write_reference(&image, &scene, params, out, &stem, exposure)?;
-    report_written(&written, quiet);
-    Ok(())
-}
-
-/// Output files are named after the scene file.
-fn stem(scene: &Path) -> String {
-    scene
-        .file_stem()
-        .map_or("render".into(), |s| s.to_string_lossy().into_owned())
-}
-
-fn report_written(paths: &[PathBuf], quiet: bool) {
-    if !quiet {
-        for path in paths {
-            println!("wrote {}", path.display());
+        for param in spec.params {
+            println!("  {:<20} {}", param.key, param.doc);
         }
     }
 }
 
 impl OutputArgs {
-    fn options(&self) -> occlux::Result<OutputOptions> {
+    /// Renders `scene` and writes its outputs as these arguments ask.
+    fn run(
+        &self,
+        scene: &Scene,
+        stem: &str,
+        out: &Path,
+        outputs: &Outputs,
+        quiet: bool,
+    ) -> occlux::Result<()> {
         let options = OutputOptions {
             precision: if self.float32 {
                 Precision::Float
@@ -523,78 +395,17 @@ impl OutputArgs {
             },
             exposure: self.exposure,
         };
-        options.validate()?;
-        Ok(options)
+        pipeline::run(scene, stem, out, self.device, &options, outputs, quiet)
     }
 }
 
-/// Loads the scene's volume and renders it on the chosen device, with progress.
-fn render_scene(
-    scene: &Scene,
-    output: &OutputArgs,
-    quiet: bool,
-) -> occlux::Result<(Rendered, Volume)> {
-    let (compute, notice) = Compute::resolve(output.device)?;
-    if let (Some(notice), false) = (notice, quiet) {
-        eprintln!("{notice}");
-    }
-    let say = |msg: String| {
-        if !quiet {
-            println!("{msg}");
-        }
-    };
-    let started = Instant::now();
-    let volume = scene.load_volume()?;
-    let [nx, ny, nz] = volume.dims();
-    say(format!(
-        "volume {nx}x{ny}x{nz} loaded in {:.2} s; rendering on {}",
-        started.elapsed().as_secs_f64(),
-        compute.describe()
-    ));
-    let bar = progress_bar(quiet, scene.camera.height as u64, "rendering");
-    let render_start = Instant::now();
-    let rendered = pipeline::render(scene, &volume, &compute, &bar)?;
-    let img = &rendered.image;
-    bar.0.finish_and_clear();
-    say(format!(
-        "rendered {}x{} in {:.2} s",
-        img.width,
-        img.height,
-        render_start.elapsed().as_secs_f64()
-    ));
-    Ok((rendered, volume))
-}
-
-/// An indicatif bar (hidden when quiet) that the library's work reports to.
-struct Bar(ProgressBar);
-
-impl occlux::progress::Progress for Bar {
-    fn update(&self, done: u64, total: u64) {
-        self.0.set_length(total);
-        self.0.set_position(done);
-    }
-}
-
-fn progress_bar(quiet: bool, len: u64, label: &'static str) -> Bar {
-    if quiet {
-        return Bar(ProgressBar::hidden());
-    }
-    let bar = ProgressBar::new(len);
-    bar.set_style(
-        ProgressStyle::with_template("{msg} [{bar:40}] {pos}/{len} {elapsed}")
-            .unwrap_or_else(|_| ProgressStyle::default_bar()),
-    );
-    bar.set_message(label);
-    Bar(bar)
-}
-
-fn info(
-    file: &Path,
+/// How `occlux info` reads the file: raw files need their layout.
+fn load_options(
     raw_dims: Option<Vec<usize>>,
     raw_type: Option<String>,
     raw_spacing: Option<Vec<f32>>,
     grid: Option<String>,
-) -> occlux::Result<()> {
+) -> occlux::Result<LoadOptions> {
     let mut options = LoadOptions {
         grid,
         ..LoadOptions::default()
@@ -614,43 +425,7 @@ fn info(
             header_bytes: 0,
         });
     }
-    let (vol, source) = volume::load_with_info(file, &options)?;
-    let [nx, ny, nz] = vol.dims();
-    let (lo, hi) = vol.value_range();
-    let (blo, bhi) = vol.bounds();
-    println!("file      {}", file.display());
-    println!(
-        "format    {} ({}{})",
-        source.format,
-        source.scalar,
-        source
-            .grid
-            .map_or(String::new(), |g| format!(", grid '{g}'"))
-    );
-    println!(
-        "dims      {nx} x {ny} x {nz} ({} voxels, {:.1} MiB as f32)",
-        vol.values().len(),
-        vol.values().len() as f64 * 4.0 / (1 << 20) as f64
-    );
-    println!("spacing   {}", vol.spacing());
-    println!("origin    {}", vol.origin());
-    println!("bounds    {blo} .. {bhi}");
-    println!("values    {lo} .. {hi}");
-    println!("histogram (16 bins over the value range, % of voxels)");
-    let hist = vol.histogram(16);
-    let total = vol.values().len() as f64;
-    let width = (hi - lo) / 16.0;
-    for (b, count) in hist.iter().enumerate() {
-        let pct = *count as f64 / total * 100.0;
-        println!(
-            "  {:>12.4} .. {:<12.4} {:6.2}% {}",
-            lo + b as f32 * width,
-            lo + (b + 1) as f32 * width,
-            pct,
-            "#".repeat((pct / 2.0).ceil() as usize)
-        );
-    }
-    Ok(())
+    Ok(options)
 }
 
 impl EstimatorName {

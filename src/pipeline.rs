@@ -7,23 +7,73 @@ use crate::export::exr::{render_layers, write_exr, ExrLayer, Precision};
 use crate::export::png::write_png_preview;
 use crate::export::usd::{write_usda, StageDescription};
 use crate::export::vdb::{write_vdb, VdbGrid, VdbOptions};
-use crate::gpu::Compute;
-use crate::progress::Progress;
-use crate::render::ao_shaded::{self, View};
-use crate::render::dos::{self, DosInput};
-use crate::render::raycast::{self, RaycastInput};
+use crate::gpu::{Compute, DeviceChoice};
+use crate::progress::{self, report_written, say, Bar, Progress};
+use crate::render::ao_shaded::{AO_GRID, AO_VARIANCE_GRID};
 use crate::render::reference::{Estimator, ReferenceImage, ReferenceParams};
-use crate::render::RenderImage;
-use crate::scene::{Method, Scene};
+use crate::render::{MethodInput, RenderImage, Rendered};
+use crate::scene::Scene;
 use crate::volume::Volume;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
+use std::time::Instant;
 
-/// A scene's render and the grids its method computed on the way.
-pub struct Rendered {
-    pub image: RenderImage,
-    /// The AO volume of AO-shaded rendering.
-    pub ao: Option<AoVolume>,
+/// What `occlux render`, `export` and `demo` write beside the render.
+pub enum Outputs {
+    /// The render alone (EXR + PNG).
+    Render,
+    /// The render, the grids (VDB) and a USD stage.
+    Export(VdbOptions),
+}
+
+/// Loads a scene's volume, renders it on `device` with a progress bar, and writes the outputs
+/// into `out_dir` named after `stem`; says what it did unless `quiet`. The body of `occlux
+/// render`, `export` and `demo`.
+pub fn run(
+    scene: &Scene,
+    stem: &str,
+    out_dir: &Path,
+    device: DeviceChoice,
+    options: &OutputOptions,
+    outputs: &Outputs,
+    quiet: bool,
+) -> Result<()> {
+    options.validate()?;
+    let (compute, notice) = Compute::resolve(device)?;
+    if let Some(line) = notice {
+        progress::notice(quiet, line);
+    }
+    let started = Instant::now();
+    let volume = scene.load_volume()?;
+    let [nx, ny, nz] = volume.dims();
+    say(
+        quiet,
+        format_args!(
+            "volume {nx}x{ny}x{nz} loaded in {:.2} s; rendering on {}",
+            started.elapsed().as_secs_f64(),
+            compute.describe()
+        ),
+    );
+    let bar = Bar::new(quiet, scene.camera.height as u64, "rendering");
+    let started = Instant::now();
+    let rendered = render(scene, &volume, &compute, &bar)?;
+    bar.finish();
+    let image = &rendered.image;
+    say(
+        quiet,
+        format_args!(
+            "rendered {}x{} in {:.2} s",
+            image.width,
+            image.height,
+            started.elapsed().as_secs_f64()
+        ),
+    );
+    let written = match outputs {
+        Outputs::Render => write_render(image, scene, out_dir, stem, options)?,
+        Outputs::Export(vdb) => export(&rendered, scene, &volume, out_dir, stem, options, vdb)?,
+    };
+    report_written(&written, quiet);
+    Ok(())
 }
 
 /// Renders a scene's method for an already loaded volume.
@@ -34,54 +84,14 @@ pub fn render(
     progress: &dyn Progress,
 ) -> Result<Rendered> {
     let lut = scene.classification.bake(volume);
-    match &scene.method {
-        Method::Raycast(params) => {
-            let input = RaycastInput {
-                volume,
-                lut: &lut,
-                camera: &scene.camera,
-                lighting: &scene.lighting,
-                params,
-                ao: None,
-            };
-            Ok(Rendered {
-                image: raycast::render(compute, &input, progress)?,
-                ao: None,
-            })
-        }
-        Method::AoShaded(params) => {
-            let view = View {
-                camera: &scene.camera,
-                lighting: &scene.lighting,
-            };
-            let (image, ao) = ao_shaded::render(
-                compute,
-                volume,
-                &scene.classification,
-                &lut,
-                &view,
-                params,
-                progress,
-            )?;
-            Ok(Rendered {
-                image,
-                ao: Some(ao),
-            })
-        }
-        Method::Dos(params) => {
-            let input = DosInput {
-                volume,
-                lut: &lut,
-                camera: &scene.camera,
-                lighting: &scene.lighting,
-                params,
-            };
-            Ok(Rendered {
-                image: dos::render(compute, &input, progress)?,
-                ao: None,
-            })
-        }
-    }
+    let input = MethodInput {
+        volume,
+        classification: &scene.classification,
+        lut: &lut,
+        camera: &scene.camera,
+        lighting: &scene.lighting,
+    };
+    scene.method.render(&input, compute, progress)
 }
 
 /// How renders are written.
@@ -201,14 +211,12 @@ fn write_image_files(
 }
 
 /// The grids `export` writes for every method: extinction per scene unit, and the volume's
-/// own values; AO-shaded rendering adds [`AO_GRID`] and, on request, [`AO_VARIANCE_GRID`].
+/// own values; a method adds the grids it computed (its registry entry's `grids`).
 pub const EXPORT_GRIDS: [&str; 2] = ["density", "value"];
-pub const AO_GRID: &str = "ao";
-pub const AO_VARIANCE_GRID: &str = "ao_variance";
 
 /// Writes a scene's exchange files into `out_dir`: the render (`STEM.exr`, `STEM.png`), the
 /// grids (`STEM.vdb`: `density`, the classified extinction sigma_t per scene unit, `value`,
-/// the volume's values, and the AO volume's grids when the method computed one) and a USD
+/// the volume's values, and the grids the method computed, such as AO-shaded DVR's `ao`) and a USD
 /// stage (`STEM.usda`) whose volume points at those grids, with the scene's camera and lights.
 /// Returns the paths written.
 pub fn export(
@@ -226,9 +234,12 @@ pub fn export(
         VdbGrid::from_volume(EXPORT_GRIDS[0], &extinction),
         VdbGrid::from_volume(EXPORT_GRIDS[1], volume),
     ];
-    if let Some(ao) = &rendered.ao {
-        grids.extend(ao_grids(ao));
-    }
+    grids.extend(
+        rendered
+            .grids
+            .iter()
+            .map(|grid| VdbGrid::from_volume(grid.name, &grid.volume)),
+    );
     let names: Vec<&str> = grids.iter().map(|g| g.name).collect();
     let stage = StageDescription::new(
         &vdb_name,
@@ -294,23 +305,24 @@ fn middle_slice(volume: &Volume) -> RenderImage {
     image
 }
 
-/// Camera and method parameters for the EXR header, as JSON text.
+/// Camera, method parameters and lights for the EXR header, each as JSON text (`occlux/camera`:
+/// [`crate::camera::Camera::describe`]; `occlux/method`: the method tagged by `method`, as in a
+/// scene's `[render]`; `occlux/lighting`: `{lights, background}`).
 pub fn header_metadata(scene: &Scene) -> BTreeMap<String, String> {
-    let cam = &scene.camera;
-    let (hx, hy) = cam.half_extent();
-    let camera = serde_json::json!({
-        "position": cam.position.to_array(),
-        "forward": cam.forward.to_array(),
-        "up": cam.up.to_array(),
-        "projection": format!("{:?}", cam.projection),
-        "half_extent": [hx, hy],
-        "width": cam.width,
-        "height": cam.height,
-    });
     let mut meta = BTreeMap::new();
     meta.insert("occlux/version".into(), env!("CARGO_PKG_VERSION").into());
-    meta.insert("occlux/camera".into(), camera.to_string());
-    meta.insert("occlux/method".into(), format!("{:?}", scene.method));
-    meta.insert("occlux/lighting".into(), format!("{:?}", scene.lighting));
+    meta.insert("occlux/camera".into(), scene.camera.describe().to_string());
+    meta.insert("occlux/method".into(), scene.method.to_json().to_string());
+    meta.insert(
+        "occlux/lighting".into(),
+        crate::json::tree(&scene.lighting).to_string(),
+    );
     meta
+}
+
+/// Output files are named after the scene file.
+pub fn stem(scene: &Path) -> String {
+    scene
+        .file_stem()
+        .map_or("render".into(), |s| s.to_string_lossy().into_owned())
 }

@@ -56,7 +56,6 @@
 //! direct = true
 //! ```
 
-use crate::ao::vao::{FieldKind, VaoParams};
 use crate::camera::{Camera, Projection};
 use crate::classify::{
     presets, Classification, ControlPoint, TransferFunction, TransferFunction1D,
@@ -64,12 +63,11 @@ use crate::classify::{
 };
 use crate::error::{Error, Result};
 use crate::lights::{Light, Lighting};
-use crate::render::ao_shaded::AoRenderParams;
-use crate::render::dos::{ClipPlane, ConeDistance, DosParams, Formulation};
-use crate::render::raycast::{GradientShading, RaycastParams, Shading};
+pub use crate::registry::Method;
 use crate::volume::{self, phantom, LoadOptions, NonFinite, RawSpec, ScalarType, Volume};
 use glam::Vec3;
 use serde::Deserialize;
+use serde_json::{json, Map, Value};
 use std::path::{Path, PathBuf};
 
 /// A scene ready to run: every field validated.
@@ -99,19 +97,6 @@ pub enum SourceKind {
     Phantom { name: String, size: usize },
 }
 
-/// The rendering method and its parameters.
-#[derive(Clone, Debug, PartialEq)]
-pub enum Method {
-    Raycast(RaycastParams),
-    /// AO-shaded DVR: a VAO volume, then the ray caster shading with it.
-    AoShaded(AoRenderParams),
-    /// Directional occlusion shading.
-    Dos(DosParams),
-}
-
-/// The method names a scene accepts.
-pub const METHODS: &[&str] = &["unshaded", "gradient", "ao", "dos"];
-
 impl Scene {
     /// Reads and validates a scene file; relative volume paths are resolved against its folder.
     pub fn from_file(path: &Path) -> Result<Self> {
@@ -125,9 +110,29 @@ impl Scene {
 
     /// Parses and validates scene text; `base` resolves relative paths.
     pub fn parse(text: &str, base: &Path) -> Result<Self> {
-        let file: SceneFile =
-            toml::from_str(text).map_err(|e| Error::param("scene", e.message()))?;
+        let tree: Value = toml::from_str(text).map_err(|e| Error::param("scene", e.message()))?;
+        Self::from_value(tree, base)
+    }
+
+    /// Builds and validates a scene from the scene file's tree in any serde form (a parsed TOML
+    /// file, JSON, a Python dict); `base` resolves relative paths. Errors name the key.
+    pub fn from_value(tree: Value, base: &Path) -> Result<Self> {
+        let file: SceneFile = serde_path_to_error::deserialize(tree)
+            .map_err(|e| Error::param(e.path().to_string(), e.inner().to_string()))?;
         file.resolve(base)
+    }
+
+    /// The scene as resolved, as JSON: the volume's source and placement, the classification,
+    /// the camera (frame, projection, image size), the lights with the background, and the
+    /// method with every parameter.
+    pub fn describe(&self) -> Value {
+        json!({
+            "volume": self.volume.describe(),
+            "classification": crate::json::tree(&self.classification),
+            "camera": self.camera.describe(),
+            "lighting": crate::json::tree(&self.lighting),
+            "method": self.method.to_json(),
+        })
     }
 
     /// Loads (or generates) the volume and places it in the world.
@@ -167,8 +172,9 @@ struct SceneFile {
     lights: Vec<LightSection>,
     #[serde(default)]
     background: Option<Colour>,
+    /// `method` and that method's parameters (see [`Method::from_table`]).
     #[serde(default)]
-    render: RenderSection,
+    render: Map<String, Value>,
 }
 
 #[derive(Deserialize)]
@@ -308,70 +314,6 @@ enum LightSection {
     },
 }
 
-#[derive(Deserialize)]
-#[serde(deny_unknown_fields)]
-struct RenderSection {
-    #[serde(default = "default_method")]
-    method: String,
-    step: Option<f32>,
-    ert_threshold: Option<f32>,
-    specular: Option<f32>,
-    shininess: Option<f32>,
-    normal_threshold: Option<f32>,
-    ao_method: Option<String>,
-    ao_radius: Option<u32>,
-    ao_field: Option<String>,
-    ao_variance: Option<bool>,
-    opacity_modulation: Option<bool>,
-    variance_max: Option<f32>,
-    direct: Option<bool>,
-    theta_deg: Option<f32>,
-    grid: Option<u32>,
-    slice_distance: Option<f32>,
-    distance: Option<String>,
-    formulation: Option<String>,
-    self_occlusion: Option<bool>,
-    clip_planes: Option<Vec<ClipPlaneSection>>,
-}
-
-#[derive(Deserialize)]
-#[serde(deny_unknown_fields)]
-struct ClipPlaneSection {
-    point: [f32; 3],
-    normal: [f32; 3],
-}
-
-impl Default for RenderSection {
-    fn default() -> Self {
-        Self {
-            method: default_method(),
-            step: None,
-            ert_threshold: None,
-            specular: None,
-            shininess: None,
-            normal_threshold: None,
-            ao_method: None,
-            ao_radius: None,
-            ao_field: None,
-            ao_variance: None,
-            opacity_modulation: None,
-            variance_max: None,
-            direct: None,
-            theta_deg: None,
-            grid: None,
-            slice_distance: None,
-            distance: None,
-            formulation: None,
-            self_occlusion: None,
-            clip_planes: None,
-        }
-    }
-}
-
-fn default_method() -> String {
-    "gradient".into()
-}
-
 impl SceneFile {
     fn resolve(self, base: &Path) -> Result<Scene> {
         let scene = Scene {
@@ -387,10 +329,25 @@ impl SceneFile {
                     .collect::<Result<_>>()?,
                 background: self.background.map_or(Vec3::ZERO, Colour::rgb),
             },
-            method: self.render.resolve()?,
+            method: Method::from_table(self.render)?,
         };
         scene.lighting.validate()?;
         Ok(scene)
+    }
+}
+
+impl VolumeSource {
+    /// Where the volume comes from and how it is placed, as JSON.
+    pub fn describe(&self) -> Value {
+        let source = match &self.kind {
+            SourceKind::File(path) => json!({ "path": path, "grid": self.options.grid }),
+            SourceKind::Phantom { name, size } => json!({ "phantom": name, "size": size }),
+        };
+        json!({
+            "source": source,
+            "fit": crate::json::tree(&self.fit),
+            "centre": crate::json::tree(&self.centre),
+        })
     }
 }
 
@@ -585,194 +542,5 @@ impl LightSection {
                 intensity: intensity.rgb(),
             },
         })
-    }
-}
-
-/// The first of `keys` that was given, as an error: it belongs to `method`.
-fn refuse_keys(keys: &[(&str, bool)], method: &str) -> Result<()> {
-    match keys.iter().find(|(_, given)| *given) {
-        Some((key, _)) => Err(Error::param(
-            format!("render.{key}"),
-            format!("only for method = \"{method}\""),
-        )),
-        None => Ok(()),
-    }
-}
-
-impl RenderSection {
-    fn resolve(self) -> Result<Method> {
-        let is_ao = self.method == "ao";
-        if !is_ao {
-            self.refuse_ao_keys()?;
-        }
-        if self.method == "dos" {
-            return self.resolve_dos();
-        }
-        let dos_keys = [
-            ("theta_deg", self.theta_deg.is_some()),
-            ("grid", self.grid.is_some()),
-            ("slice_distance", self.slice_distance.is_some()),
-            ("distance", self.distance.is_some()),
-            ("formulation", self.formulation.is_some()),
-            ("self_occlusion", self.self_occlusion.is_some()),
-            ("clip_planes", self.clip_planes.is_some()),
-        ];
-        refuse_keys(&dos_keys, "dos")?;
-        let gradient = || {
-            let d = GradientShading::default();
-            GradientShading {
-                specular: self.specular.unwrap_or(d.specular),
-                shininess: self.shininess.unwrap_or(d.shininess),
-                normal_threshold: self.normal_threshold.unwrap_or(d.normal_threshold),
-            }
-        };
-        let has_gradient_keys =
-            self.specular.is_some() || self.shininess.is_some() || self.normal_threshold.is_some();
-        let shading = match self.method.as_str() {
-            "unshaded" => {
-                if has_gradient_keys {
-                    return Err(Error::param(
-                        "render.specular",
-                        "specular, shininess and normal_threshold are for method = \"gradient\"",
-                    ));
-                }
-                Shading::Unshaded
-            }
-            "gradient" => Shading::Gradient(gradient()),
-            "ao" => {
-                let direct = self.direct.unwrap_or(true);
-                if !direct && has_gradient_keys {
-                    return Err(Error::param(
-                        "render.specular",
-                        "specular, shininess and normal_threshold shade direct light: not with direct = false",
-                    ));
-                }
-                Shading::AmbientOcclusion {
-                    direct: direct.then(gradient),
-                }
-            }
-            other => {
-                return Err(Error::param(
-                    "render.method",
-                    format!("unknown method '{other}'; known: {}", METHODS.join(", ")),
-                ))
-            }
-        };
-        let params = RaycastParams {
-            shading,
-            step: self.step,
-            ert_threshold: self
-                .ert_threshold
-                .unwrap_or(RaycastParams::default().ert_threshold),
-        };
-        params.validate()?;
-        if !is_ao {
-            return Ok(Method::Raycast(params));
-        }
-        let defaults = VaoParams::default();
-        let ao = AoRenderParams {
-            raycast: params,
-            vao: VaoParams {
-                radius: self.ao_radius.unwrap_or(defaults.radius),
-                estimator: match &self.ao_method {
-                    Some(name) => name
-                        .parse()
-                        .map_err(|e: Error| Error::param("render.ao_method", e.to_string()))?,
-                    None => defaults.estimator,
-                },
-                variance: self.ao_variance.unwrap_or(false),
-            },
-            field: match &self.ao_field {
-                Some(name) => name
-                    .parse()
-                    .map_err(|e: Error| Error::param("render.ao_field", e.to_string()))?,
-                None => FieldKind::default(),
-            },
-            opacity_modulation: self.opacity_modulation.unwrap_or(false),
-            variance_max: self.variance_max,
-        };
-        ao.validate().map_err(|e| match e {
-            Error::Param { key, message } if !key.starts_with("render.") => {
-                Error::param(format!("render.ao_{key}"), message)
-            }
-            other => other,
-        })?;
-        Ok(Method::AoShaded(ao))
-    }
-
-    /// The AO keys belong to method = "ao".
-    fn refuse_ao_keys(&self) -> Result<()> {
-        let keys = [
-            ("ao_method", self.ao_method.is_some()),
-            ("ao_radius", self.ao_radius.is_some()),
-            ("ao_field", self.ao_field.is_some()),
-            ("ao_variance", self.ao_variance.is_some()),
-            ("opacity_modulation", self.opacity_modulation.is_some()),
-            ("variance_max", self.variance_max.is_some()),
-            ("direct", self.direct.is_some()),
-        ];
-        refuse_keys(&keys, "ao")
-    }
-
-    fn resolve_dos(self) -> Result<Method> {
-        let raycast_keys = [
-            ("step", self.step.is_some()),
-            ("ert_threshold", self.ert_threshold.is_some()),
-            ("specular", self.specular.is_some()),
-            ("shininess", self.shininess.is_some()),
-            ("normal_threshold", self.normal_threshold.is_some()),
-        ];
-        if let Some((key, _)) = raycast_keys.iter().find(|(_, given)| *given) {
-            return Err(Error::param(
-                format!("render.{key}"),
-                "not a parameter of method = \"dos\" (use slice_distance for the sampling)",
-            ));
-        }
-        let distance = match self.distance.as_deref() {
-            None | Some("exact") => ConeDistance::Exact,
-            Some("approximate") => ConeDistance::Approximate,
-            Some(other) => {
-                return Err(Error::param(
-                    "render.distance",
-                    format!("must be \"exact\" or \"approximate\", got '{other}'"),
-                ))
-            }
-        };
-        let formulation = match self.formulation.as_deref() {
-            None | Some("slices") => Formulation::Slices,
-            Some("rays") => Formulation::Rays,
-            Some(other) => {
-                return Err(Error::param(
-                    "render.formulation",
-                    format!("must be \"slices\" or \"rays\", got '{other}'"),
-                ))
-            }
-        };
-        let mut clip_planes = Vec::new();
-        for (i, plane) in self.clip_planes.unwrap_or_default().into_iter().enumerate() {
-            let normal = Vec3::from(plane.normal);
-            if !normal.is_finite() || normal.length() == 0.0 {
-                return Err(Error::param(
-                    format!("render.clip_planes[{i}].normal"),
-                    "must be a finite non-zero vector",
-                ));
-            }
-            clip_planes.push(ClipPlane {
-                point: Vec3::from(plane.point),
-                normal: normal.normalize(),
-            });
-        }
-        let d = DosParams::default();
-        let params = DosParams {
-            theta_deg: self.theta_deg.unwrap_or(d.theta_deg),
-            grid: self.grid.unwrap_or(d.grid),
-            slice_distance: self.slice_distance,
-            distance,
-            formulation,
-            self_occlusion: self.self_occlusion.unwrap_or(d.self_occlusion),
-            clip_planes,
-        };
-        params.validate()?;
-        Ok(Method::Dos(params))
     }
 }

@@ -404,12 +404,17 @@ fn ao_shaded_scenes_render_and_export_the_ao_grid() {
     let scene = Scene::from_file(&scene_path).unwrap();
     let volume = scene.load_volume().unwrap();
     let rendered = pipeline::render(&scene, &volume, &Compute::Cpu, &NoProgress).unwrap();
-    let ao = rendered.ao.as_ref().unwrap();
+    let ao = &rendered
+        .grids
+        .iter()
+        .find(|g| g.name == "ao")
+        .unwrap()
+        .volume;
     let file = std::io::BufReader::new(std::fs::File::open(dir.join("ball-ao.vdb")).unwrap());
     let mut reader = vdb_rs::VdbReader::new(file).unwrap();
     let grid = reader.read_grid::<f32>("ao").unwrap();
     for (p, v, _) in grid.iter() {
-        assert_eq!(v, ao.openness.at(p.x as usize, p.y as usize, p.z as usize));
+        assert_eq!(v, ao.at(p.x as usize, p.y as usize, p.z as usize));
     }
     assert!(reader.read_grid::<f32>("ao_variance").is_ok());
     let usda = std::fs::read_to_string(dir.join("ball-ao.usda")).unwrap();

@@ -43,7 +43,7 @@ fn defaults_fill_a_minimal_scene() {
     assert_eq!((scene.camera.width, scene.camera.height), (512, 512));
     assert!(matches!(
         scene.method,
-        Method::Raycast(p) if matches!(p.shading, Shading::Gradient(_))
+        Method::Gradient(p) if matches!(p.raycast().shading, Shading::Gradient(_))
     ));
     assert!((scene.camera.forward - Vec3::Y).length() < 1e-6);
 }
@@ -163,25 +163,25 @@ fn ao_method_reads_its_keys_and_refuses_them_elsewhere() {
          ao_field = \"value\"\nopacity_modulation = true\nvariance_max = 2.5\ndirect = false\n"
     ))
     .unwrap();
-    let Method::AoShaded(p) = scene.method else {
+    let Method::Ao(p) = scene.method else {
         panic!("{:?}", scene.method)
     };
-    assert_eq!(p.vao.estimator, Estimator::Penner);
-    assert_eq!(p.vao.radius, 6);
-    assert_eq!(p.field, FieldKind::Value);
+    assert_eq!(p.vao().estimator, Estimator::Penner);
+    assert_eq!(p.vao().radius, 6);
+    assert_eq!(p.ao_field, FieldKind::Value);
     assert!(p.opacity_modulation && p.variance_max == Some(2.5));
     assert_eq!(
-        p.raycast.shading,
+        p.raycast().shading,
         Shading::AmbientOcclusion { direct: None }
     );
     // Defaults: CDF, radius 10, extinction, gradient-shaded direct light.
     let scene = parse(&format!("{MINIMAL}\n[render]\nmethod = \"ao\"\n")).unwrap();
-    let Method::AoShaded(p) = scene.method else {
+    let Method::Ao(p) = scene.method else {
         panic!()
     };
-    assert_eq!((p.vao.estimator, p.vao.radius), (Estimator::Cdf, 10));
+    assert_eq!((p.vao().estimator, p.vao().radius), (Estimator::Cdf, 10));
     assert!(matches!(
-        p.raycast.shading,
+        p.raycast().shading,
         Shading::AmbientOcclusion { direct: Some(_) }
     ));
     for (render, key) in [

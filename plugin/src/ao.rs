@@ -6,7 +6,7 @@ use crate::render::{compute, scene_volume, with_progress};
 use crate::scene::PyScene;
 use crate::volume::PyVolume;
 use occlux::ao::vao::{self, ScalarField, VaoParams};
-use occlux::pipeline::{AO_GRID, AO_VARIANCE_GRID};
+use occlux::render::ao_shaded::{AO_GRID, AO_VARIANCE_GRID};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 

@@ -89,6 +89,20 @@ impl PyClassification {
         }
     }
 
+    /// The control points of a 1D transfer function on `volume`'s raw values, sorted, with
+    /// `density_scale` applied: the function Occlux's table holds for that volume, as
+    /// `(value, sigma_t, albedo, emission)`; None for a 2D transfer function.
+    fn raw_points(&self, volume: &PyVolume) -> Option<Vec<PointArg>> {
+        self.inner
+            .raw_points(volume.inner.value_range())
+            .map(|points| {
+                points
+                    .into_iter()
+                    .map(|p| (p.value, p.sigma_t, p.albedo, p.emission))
+                    .collect()
+            })
+    }
+
     /// Extinction (sigma_t per world unit) at every voxel centre of `volume`, as a volume on
     /// the same grid: the `density` grid that `export` writes.
     fn extinction(&self, py: Python<'_>, volume: &PyVolume) -> PyResult<PyVolume> {

@@ -8,6 +8,7 @@ mod arrays;
 mod classification;
 mod errors;
 mod export;
+mod json;
 mod reference;
 mod render;
 mod scene;
@@ -17,6 +18,16 @@ mod volume;
 use errors::OccluxError;
 pub(crate) use errors::{py_err, unknown_choice};
 use pyo3::prelude::*;
+
+/// The rendering methods a scene's `render.method` can name, from the core's registry: a list
+/// of dicts with `name`, `summary`, `module`, `shaders`, `lights` (the kinds it renders),
+/// `layers` (EXR), `grids` (VDB, beyond density and value) and `params`, each with `key`,
+/// `doc`, `type` (float, int, bool, choice, planes), `default`, and `range` (`min`, `max`,
+/// `min_inclusive`, `max_inclusive`; None for an unbounded side) or `options`.
+#[pyfunction]
+fn methods(py: Python<'_>) -> PyResult<Bound<'_, PyAny>> {
+    json::to_python(py, &occlux::registry::describe())
+}
 
 #[pymodule]
 fn _occlux(m: &Bound<'_, PyModule>) -> PyResult<()> {
@@ -37,5 +48,6 @@ fn _occlux(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(export::stage_description, m)?)?;
     m.add_function(wrap_pyfunction!(export::export, m)?)?;
     m.add_function(wrap_pyfunction!(ao::ao_volume, m)?)?;
+    m.add_function(wrap_pyfunction!(methods, m)?)?;
     Ok(())
 }

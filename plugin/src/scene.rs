@@ -1,6 +1,7 @@
 //! `occlux.Scene`: a validated scene file (volume source, classification, camera, lights, method).
 
 use crate::classification::PyClassification;
+use crate::json::{from_python, to_python};
 use crate::py_err;
 use crate::volume::PyVolume;
 use occlux::camera::Camera;
@@ -30,6 +31,25 @@ impl PyScene {
     fn from_toml(text: &str, base_dir: PathBuf) -> PyResult<Self> {
         let inner = Scene::parse(text, &base_dir).map_err(py_err)?;
         Ok(Self { inner })
+    }
+
+    /// Builds a scene from the scene file's tree as Python data: a dict with the TOML file's
+    /// sections and keys (`volume`, `classification`, `camera`, `lights`, `background`,
+    /// `render`), validated as a file is; relative volume paths are resolved against `base_dir`.
+    #[staticmethod]
+    #[pyo3(signature = (tree, base_dir = PathBuf::from(".")), text_signature = "(tree, base_dir='.')")]
+    fn from_dict(tree: &Bound<'_, PyAny>, base_dir: PathBuf) -> PyResult<Self> {
+        let tree = from_python(tree, "scene")?;
+        let inner = Scene::from_value(tree, &base_dir).map_err(py_err)?;
+        Ok(Self { inner })
+    }
+
+    /// The scene as the core resolved it, as a dict: `volume` (source and placement),
+    /// `classification`, `camera` (position, forward, right, up, projection with `fov_y` in
+    /// radians or the orthographic `scale`, width, height, half_extent), `lighting` (`lights`
+    /// and `background`) and `method` (its name under `method`, and every parameter).
+    fn describe<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        to_python(py, &self.inner.describe())
     }
 
     /// Loads (or generates) the scene's volume and places it in the world (`fit`, `centre`).

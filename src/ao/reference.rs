@@ -29,11 +29,22 @@ use rayon::prelude::*;
 use std::sync::atomic::{AtomicU64, Ordering};
 
 /// Which openness to estimate (see the module docs).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
 pub enum AoVariant {
     Sphere,
     Hemisphere,
     TangentSphere,
+}
+
+impl AoVariant {
+    /// The name on the command line and in file names.
+    pub fn name(self) -> &'static str {
+        match self {
+            AoVariant::Sphere => "sphere",
+            AoVariant::Hemisphere => "hemisphere",
+            AoVariant::TangentSphere => "tangent-sphere",
+        }
+    }
 }
 
 /// Parameters of a reference AO volume.

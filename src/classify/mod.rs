@@ -17,10 +17,10 @@ pub use tf2d::{TransferFunction2D, Widget, WidgetShape};
 
 use crate::error::{Error, Result};
 use crate::volume::Volume;
-use serde::Deserialize;
+use serde::{Deserialize, Serialize};
 
 /// How control-point and widget value positions are expressed.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Deserialize)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum ValueUnits {
     /// 0 is the volume's minimum value, 1 its maximum (presets use this).
@@ -30,16 +30,20 @@ pub enum ValueUnits {
     Raw,
 }
 
-/// A 1D or 2D transfer function.
-#[derive(Clone, Debug, PartialEq)]
+/// A 1D or 2D transfer function; as JSON `{"points": [...]}` or `{"widgets": [...]}`, the
+/// scene file's keys.
+#[derive(Clone, Debug, PartialEq, Serialize)]
 pub enum TransferFunction {
+    #[serde(rename = "points")]
     OneD(TransferFunction1D),
+    #[serde(rename = "widgets")]
     TwoD(TransferFunction2D),
 }
 
 /// A transfer function with its value units and a global density scale on sigma_t.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct Classification {
+    #[serde(flatten)]
     pub tf: TransferFunction,
     pub units: ValueUnits,
     /// Multiplies sigma_t everywhere (not the albedo, not the emission).
@@ -119,10 +123,34 @@ impl Classification {
         })
     }
 
+    /// The control points of a 1D transfer function placed on the raw values of a volume whose
+    /// values span `value_range`, sorted, with the density scale applied to sigma_t: the
+    /// function the baked table holds, for renderers that take a ramp (Cycles). None for a 2D
+    /// transfer function.
+    pub fn raw_points(&self, value_range: (f32, f32)) -> Option<Vec<ControlPoint>> {
+        let TransferFunction::OneD(tf) = &self.tf else {
+            return None;
+        };
+        let (vmin, vmax) = value_axis(value_range.0, value_range.1);
+        let to_raw = |x: f32| match self.units {
+            ValueUnits::Normalized => vmin + x * (vmax - vmin),
+            ValueUnits::Raw => x,
+        };
+        Some(
+            tf.points()
+                .iter()
+                .map(|p| ControlPoint {
+                    value: to_raw(p.value),
+                    sigma_t: p.sigma_t * self.density_scale,
+                    ..p.clone()
+                })
+                .collect(),
+        )
+    }
+
     /// Bakes the table over an explicit value range and gradient-magnitude maximum.
     pub fn bake_over(&self, vmin: f32, vmax: f32, gmax: f32) -> Lut {
-        // A constant volume still needs a non-empty axis for interpolation.
-        let vmax = if vmax > vmin { vmax } else { vmin + 1.0 };
+        let (vmin, vmax) = value_axis(vmin, vmax);
         let to_tf = |v: f32| match self.units {
             ValueUnits::Normalized => (v - vmin) / (vmax - vmin),
             ValueUnits::Raw => v,
@@ -152,6 +180,12 @@ impl Classification {
             }
         }
     }
+}
+
+/// The table's value axis for values in [vmin, vmax]: a constant volume still needs a non-empty
+/// axis for interpolation.
+fn value_axis(vmin: f32, vmax: f32) -> (f32, f32) {
+    (vmin, if vmax > vmin { vmax } else { vmin + 1.0 })
 }
 
 #[cfg(test)]
@@ -189,6 +223,27 @@ mod tests {
             let want = 20.0 * ((v - 60.0) / 60.0).clamp(0.0, 1.0);
             assert!((lut.lookup(v, 0.0).sigma_t - want).abs() < 0.02, "v={v}");
         }
+    }
+
+    #[test]
+    fn raw_points_are_where_the_table_puts_them() {
+        let c = presets::preset("ct-soft-tissue").unwrap();
+        let c = Classification {
+            density_scale: 2.5,
+            ..c
+        };
+        let lut = c.bake_over(-1000.0, 3000.0, 0.0);
+        let points = c.raw_points((-1000.0, 3000.0)).unwrap();
+        assert!(points.len() >= 2);
+        for p in &points {
+            let o = lut.lookup(p.value, 0.0);
+            assert!(
+                (o.sigma_t - p.sigma_t).abs() <= 1e-2 * p.sigma_t.max(1.0),
+                "{p:?}"
+            );
+        }
+        let widgets = presets::preset("boundary-2d").unwrap();
+        assert!(widgets.raw_points((0.0, 1.0)).is_none());
     }
 
     #[test]

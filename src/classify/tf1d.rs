@@ -3,10 +3,10 @@
 use super::lut::Optical;
 use crate::error::{Error, Result};
 use glam::Vec3;
-use serde::Deserialize;
+use serde::{Deserialize, Serialize};
 
 /// One control point: at `value`, extinction `sigma_t` per world unit, `albedo` and `emission`.
-#[derive(Clone, Debug, PartialEq, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct ControlPoint {
     pub value: f32,
@@ -69,7 +69,8 @@ pub(super) fn validate_optics(
 }
 
 /// Control points sorted by value; linear in between, constant beyond the ends.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq, Serialize)]
+#[serde(transparent)]
 pub struct TransferFunction1D {
     points: Vec<ControlPoint>,
 }

@@ -6,10 +6,10 @@ use super::lut::Optical;
 use super::tf1d::{default_albedo, validate_optics};
 use crate::error::{Error, Result};
 use glam::Vec3;
-use serde::Deserialize;
+use serde::{Deserialize, Serialize};
 
 /// The footprint of a widget in (value, gradient magnitude).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, Deserialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum WidgetShape {
     /// Full strength inside the rectangle, nothing outside.
@@ -21,7 +21,7 @@ pub enum WidgetShape {
 }
 
 /// One widget: gradient magnitudes are normalised to [0, 1] by the volume's largest one.
-#[derive(Clone, Debug, PartialEq, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Widget {
     #[serde(default)]
@@ -111,7 +111,8 @@ impl Widget {
 }
 
 /// Widgets add their extinction and emission; albedo is the extinction-weighted mean.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq, Serialize)]
+#[serde(transparent)]
 pub struct TransferFunction2D {
     widgets: Vec<Widget>,
 }

@@ -6,6 +6,35 @@ pub mod occupancy;
 pub mod raycast;
 pub mod reference;
 
+use crate::camera::Camera;
+use crate::classify::{Classification, Lut};
+use crate::lights::Lighting;
+use crate::volume::Volume;
+
+/// What every rendering method reads: the placed volume, its classification baked into a
+/// table, and the scene's camera and lights.
+#[derive(Clone, Copy)]
+pub struct MethodInput<'a> {
+    pub volume: &'a Volume,
+    pub classification: &'a Classification,
+    pub lut: &'a Lut,
+    pub camera: &'a Camera,
+    pub lighting: &'a Lighting,
+}
+
+/// A method's render and the grids it computed on the way (AO-shaded DVR's `ao`), which
+/// `export` writes beside `density` and `value`.
+pub struct Rendered {
+    pub image: RenderImage,
+    pub grids: Vec<Grid>,
+}
+
+/// A named grid on the volume's voxels.
+pub struct Grid {
+    pub name: &'static str,
+    pub volume: Volume,
+}
+
 /// Depth written where a ray never reaches 50 % opacity (the value Blender writes for background).
 pub const BACKGROUND_DEPTH: f32 = 1.0e10;
 

@@ -5,6 +5,7 @@
 //! `origin - spacing / 2` to `origin + (dims - 1/2) * spacing` (the OpenVDB/Blender convention).
 //! Between centres, samples are trilinear; in the half-voxel border they clamp to the edge.
 
+pub mod info;
 mod loaders;
 pub mod phantom;
 

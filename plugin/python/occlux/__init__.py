@@ -11,6 +11,7 @@ grids, OpenEXR layers and USD stages that Blender and other tools read::
     occlux.export(scene, "out/", stem="engine")  # out/engine.{exr,png,vdb,usda}
     truth = occlux.reference(scene, estimator="single", spp=256)  # .mean, .stderr
     grids = occlux.ao_volume(scene, method="cdf", radius=10)  # {"ao": Volume}
+    [m["name"] for m in occlux.methods()]  # the registry: unshaded, gradient, ao, dos
     occlux.write_vdb("engine-ao.vdb", grids)
 
 ``occlux.usd`` authors the same USD stages through usd-core's ``pxr`` API, into a file or into
@@ -31,6 +32,7 @@ from occlux._occlux import (
     __version__,
     ao_volume,
     export,
+    methods,
     reference,
     render,
     stage_description,
@@ -50,6 +52,7 @@ __all__ = [
     "__version__",
     "ao_volume",
     "export",
+    "methods",
     "reference",
     "render",
     "stage_description",

@@ -2,7 +2,7 @@
 
 from collections.abc import Callable, Sequence
 from os import PathLike
-from typing import Literal
+from typing import Any, Literal
 
 import numpy as np
 import numpy.typing as npt
@@ -102,6 +102,11 @@ class Classification:
     ) -> list[tuple[float, float, tuple[float, float, float], tuple[float, float, float]]] | None:
         """Control points ``(value, sigma_t, albedo, emission)`` of a 1D transfer function
         (before ``density_scale``); None for a 2D one."""
+    def raw_points(
+        self, volume: Volume
+    ) -> list[tuple[float, float, tuple[float, float, float], tuple[float, float, float]]] | None:
+        """The control points on ``volume``'s raw values, sorted, ``density_scale`` applied: the
+        function Occlux's table holds for that volume; None for a 2D transfer function."""
     def extinction(self, volume: Volume) -> Volume:
         """Extinction (sigma_t per world unit) at every voxel centre of ``volume``, on the same
         grid: the ``density`` grid that :func:`export` writes."""
@@ -117,6 +122,19 @@ class Scene:
     @staticmethod
     def from_toml(text: str, base_dir: _Path = ".") -> Scene:
         """Parses TOML scene text; relative volume paths are resolved against ``base_dir``."""
+
+    @staticmethod
+    def from_dict(tree: dict[str, Any], base_dir: _Path = ".") -> Scene:
+        """Builds a scene from the scene file's tree as Python data (the TOML file's sections
+        and keys: ``volume``, ``classification``, ``camera``, ``lights``, ``background``,
+        ``render``), validated as a file is."""
+
+    def describe(self) -> dict[str, Any]:
+        """The scene as the core resolved it: ``volume`` (source, fit, centre),
+        ``classification``, ``camera`` (position, forward, right, up, ``projection`` with
+        ``type`` and ``fov_y`` in radians or ``scale``, width, height, half_extent),
+        ``lighting`` (``lights``, ``background``) and ``method`` (``method`` and every
+        parameter)."""
 
     def load_volume(self) -> Volume:
         """Loads (or generates) the scene's volume and places it in the world (fit, centre)."""
@@ -249,3 +267,8 @@ def ao_volume(
     """What ``occlux ao`` computes: the VAO volume of ``scene``'s classified volume,
     ``{"ao": openness}`` (1 = unoccluded) plus ``"ao_variance"`` when ``variance`` is true, on
     the volume's grid, ready for :func:`write_vdb`. ``exact`` counts voxels (slow, CPU)."""
+
+def methods() -> list[dict[str, Any]]:
+    """The rendering methods a scene's ``render.method`` can name (the core's registry): each
+    with ``name``, ``summary``, ``module``, ``shaders``, ``lights``, ``layers``, ``grids`` and
+    ``params`` (``key``, ``doc``, ``type``, ``default``, and ``range`` or ``options``)."""

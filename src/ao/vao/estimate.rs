@@ -12,8 +12,9 @@
 use crate::error::{Error, Result};
 use std::f32::consts::PI;
 
-/// How F(v) is estimated.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+/// How F(v) is estimated. In scene files and JSON by its name ([`Estimator::name`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
+#[serde(try_from = "String", into = "&'static str")]
 pub enum Estimator {
     /// (a) F(t) = t^beta on t = (v - min) / (max - min), beta = (mean - min) / (max - mean),
     /// the power CDF whose mean is the box's mean.
@@ -73,6 +74,19 @@ impl std::str::FromStr for Estimator {
                     format!("unknown AO method '{s}'; known: {}", NAMES.join(", ")),
                 )
             })
+    }
+}
+
+impl TryFrom<String> for Estimator {
+    type Error = Error;
+    fn try_from(s: String) -> Result<Self> {
+        s.parse()
+    }
+}
+
+impl From<Estimator> for &'static str {
+    fn from(e: Estimator) -> Self {
+        e.name()
     }
 }
 

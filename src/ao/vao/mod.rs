@@ -38,7 +38,8 @@ pub use estimate::Estimator;
 pub const MAX_RADIUS: u32 = 256;
 
 /// Which scalar field the statistics run on.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
 pub enum FieldKind {
     /// The classified extinction sigma_t at each voxel (what occludes light); outside is 0.
     #[default]

@@ -57,16 +57,20 @@
 
 pub mod cpu;
 pub mod gpu;
+mod method;
 
 use crate::camera::Camera;
 use crate::classify::{Lut, Optical};
 use crate::error::{Error, Result};
-use crate::lights::{Light, Lighting};
+use crate::lights::Lighting;
+use crate::registry::RenderMethod;
 use crate::volume::Volume;
 use glam::{Vec2, Vec3};
+use serde::{Deserialize, Serialize};
 
 /// How a cone sample's path through the previous slab is measured.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
 pub enum ConeDistance {
     /// sqrt(d^2 + |q|^2): the slanted path (the paper's Algorithm 2).
     #[default]
@@ -76,7 +80,8 @@ pub enum ConeDistance {
 }
 
 /// How the volume is cut into slabs.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
 pub enum Formulation {
     /// View-aligned planes d apart in depth (the paper's slice-based algorithm).
     #[default]
@@ -87,7 +92,8 @@ pub enum Formulation {
 
 /// A clipping plane: material on the side the normal points to is removed, for the eye and
 /// for the occlusion (clipped material casts no occlusion).
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct ClipPlane {
     pub point: Vec3,
     /// Unit normal, pointing into the removed half-space.
@@ -102,8 +108,9 @@ impl ClipPlane {
     }
 }
 
-/// Parameters of DOS.
-#[derive(Clone, Debug, PartialEq)]
+/// Parameters of DOS: `method = "dos"` in a scene, one key per field.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
 pub struct DosParams {
     /// Cone half-angle in degrees, in [0, 90).
     pub theta_deg: f32,
@@ -149,35 +156,16 @@ pub const MAX_TAN_THETA: f32 = 1.0e4;
 pub const MAX_RADIUS_PX: f32 = 2_097_152.0;
 
 impl DosParams {
+    /// Checks every parameter against the ranges of the registry's `dos` entry.
     pub fn validate(&self) -> Result<()> {
-        if !(0.0..90.0).contains(&self.theta_deg) {
-            return Err(Error::param(
-                "render.theta_deg",
-                format!("must be in [0, 90) degrees, got {}", self.theta_deg),
-            ));
-        }
-        if !(1..=MAX_GRID).contains(&self.grid) {
-            return Err(Error::param(
-                "render.grid",
-                format!("must be in 1..={MAX_GRID}, got {}", self.grid),
-            ));
-        }
-        if let Some(d) = self.slice_distance {
-            if !(d > 0.0 && d.is_finite()) {
-                return Err(Error::param(
-                    "render.slice_distance",
-                    format!("must be positive, got {d}"),
-                ));
-            }
-        }
+        method::THETA_DEG.check(self.theta_deg as f64)?;
+        method::GRID.check(self.grid as f64)?;
+        method::SLICE_DISTANCE.check_optional(self.slice_distance)?;
         if self.clip_planes.len() > MAX_CLIP_PLANES {
-            return Err(Error::param(
-                "render.clip_planes",
-                format!(
-                    "at most {MAX_CLIP_PLANES} planes, got {}",
-                    self.clip_planes.len()
-                ),
-            ));
+            return Err(method::CLIP_PLANES.error(format!(
+                "at most {MAX_CLIP_PLANES} planes, got {}",
+                self.clip_planes.len()
+            )));
         }
         for (i, plane) in self.clip_planes.iter().enumerate() {
             if !plane.point.is_finite() || !plane.normal.is_normalized() {
@@ -240,17 +228,7 @@ impl DosInput<'_> {
     pub fn setup(&self) -> Result<DosSetup> {
         self.params.validate()?;
         self.lighting.validate()?;
-        if let Some(i) = self
-            .lighting
-            .lights
-            .iter()
-            .position(|l| !matches!(l, Light::Ambient { .. }))
-        {
-            return Err(Error::param(
-                format!("lights[{i}]"),
-                "method \"dos\" is lit by ambient lights only; remove the directional and point lights",
-            ));
-        }
+        <DosParams as RenderMethod>::SPEC.check_lights(self.lighting)?;
         let d = self
             .params
             .slice_distance

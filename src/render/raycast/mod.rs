@@ -24,6 +24,12 @@
 
 pub mod cpu;
 pub mod gpu;
+mod method;
+
+pub use method::{
+    GradientParams, UnshadedParams, ERT_THRESHOLD, MARCH, NORMAL_THRESHOLD, SHININESS, SPECULAR,
+    STEP,
+};
 
 use crate::error::{Error, Result};
 
@@ -104,40 +110,14 @@ impl Default for RaycastParams {
 pub const MAX_STEPS: f32 = 1.0e6;
 
 impl RaycastParams {
+    /// Checks every parameter against the ranges of the registry's `gradient` entry.
     pub fn validate(&self) -> Result<()> {
-        if let Some(step) = self.step {
-            if !(step > 0.0 && step.is_finite()) {
-                return Err(Error::param(
-                    "render.step",
-                    format!("must be positive, got {step}"),
-                ));
-            }
-        }
-        if !(0.0..1.0).contains(&self.ert_threshold) {
-            return Err(Error::param(
-                "render.ert_threshold",
-                format!("must be in [0, 1), got {}", self.ert_threshold),
-            ));
-        }
+        method::STEP.check_optional(self.step)?;
+        method::ERT_THRESHOLD.check(self.ert_threshold as f64)?;
         if let Some(g) = self.shading.gradient() {
-            if !(0.0..=1.0).contains(&g.specular) {
-                return Err(Error::param(
-                    "render.specular",
-                    format!("must be in [0, 1], got {}", g.specular),
-                ));
-            }
-            if !(1.0..=4096.0).contains(&g.shininess) {
-                return Err(Error::param(
-                    "render.shininess",
-                    format!("must be in [1, 4096], got {}", g.shininess),
-                ));
-            }
-            if !(g.normal_threshold > 0.0 && g.normal_threshold <= 1.0) {
-                return Err(Error::param(
-                    "render.normal_threshold",
-                    format!("must be in (0, 1], got {}", g.normal_threshold),
-                ));
-            }
+            method::SPECULAR.check(g.specular as f64)?;
+            method::SHININESS.check(g.shininess as f64)?;
+            method::NORMAL_THRESHOLD.check(g.normal_threshold as f64)?;
         }
         Ok(())
     }

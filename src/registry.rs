@@ -1,0 +1,418 @@
+//! The method registry: every rendering method a scene can name, with its parameters (defaults,
+//! ranges, documentation), the lights it accepts and the EXR layers and VDB grids it writes.
+//! The scene parser, the CLI (`occlux methods`), the benchmarks and accuracy tables, the Python
+//! package (`occlux.methods()`) and the Blender add-on (its property limits) all read it, so
+//! none of them repeats what a method is.
+//!
+//! A method is one folder under `src/render/` (its parameters, CPU twin, GPU twin and a
+//! [`RenderMethod`] impl) with its kernels in `shaders/NAME*.wgsl`, and one line in the
+//! `methods!` list at the bottom of this file.
+
+use crate::error::{Error, Result};
+use crate::gpu::Compute;
+use crate::lights::{LightKind, Lighting};
+use crate::progress::Progress;
+use crate::render::{MethodInput, Rendered};
+use serde::de::DeserializeOwned;
+use serde::{Deserialize, Serialize};
+use serde_json::{Map, Value};
+use std::fmt::Debug;
+
+/// What a method is, for every consumer of the registry.
+#[derive(Debug, Serialize)]
+pub struct MethodSpec {
+    /// The name a scene's `[render] method` gives.
+    pub name: &'static str,
+    /// One line for menus and help.
+    pub summary: &'static str,
+    /// Where its code lives, under src/.
+    pub module: &'static str,
+    /// Its WGSL kernels in shaders/.
+    pub shaders: &'static [&'static str],
+    /// The lights it renders; a scene with others is refused.
+    pub lights: &'static [LightKind],
+    /// The layers of the EXR it writes.
+    pub layers: &'static [&'static str],
+    /// The VDB grids `export` writes for it beyond `density` and `value`.
+    pub grids: &'static [&'static str],
+    pub params: &'static [ParamSpec],
+}
+
+/// Every kind of light.
+pub const ALL_LIGHTS: &[LightKind] =
+    &[LightKind::Ambient, LightKind::Directional, LightKind::Point];
+
+/// One parameter of a method: its key in `[render]`, what it means and what it accepts.
+#[derive(Debug, Serialize)]
+pub struct ParamSpec {
+    pub key: &'static str,
+    pub doc: &'static str,
+    #[serde(flatten)]
+    pub kind: ParamKind,
+}
+
+/// What values a parameter takes.
+#[derive(Debug, Serialize)]
+#[serde(tag = "type", rename_all = "lowercase")]
+pub enum ParamKind {
+    /// A real number in `range`; `optional`: it may be left out, and `doc` says what is used then.
+    Float {
+        range: Range,
+        optional: bool,
+    },
+    /// A whole number in `range` (inclusive bounds).
+    Int {
+        range: Range,
+    },
+    Bool,
+    /// One of the named options.
+    Choice {
+        options: &'static [Choice],
+    },
+    /// A list of at most `max` clipping planes, each `{ point, normal }`.
+    Planes {
+        max: usize,
+    },
+}
+
+/// One option of a [`ParamKind::Choice`].
+#[derive(Debug, Serialize)]
+pub struct Choice {
+    pub name: &'static str,
+    pub doc: &'static str,
+}
+
+/// An interval; an infinite bound is written as null in JSON.
+#[derive(Clone, Copy, Debug, Serialize)]
+pub struct Range {
+    pub min: f64,
+    pub max: f64,
+    pub min_inclusive: bool,
+    pub max_inclusive: bool,
+}
+
+impl Range {
+    /// [min, max].
+    pub const fn closed(min: f64, max: f64) -> Self {
+        Self {
+            min,
+            max,
+            min_inclusive: true,
+            max_inclusive: true,
+        }
+    }
+
+    /// [min, max).
+    pub const fn below(min: f64, max: f64) -> Self {
+        Self {
+            max_inclusive: false,
+            ..Self::closed(min, max)
+        }
+    }
+
+    /// (min, max].
+    pub const fn above(min: f64, max: f64) -> Self {
+        Self {
+            min_inclusive: false,
+            ..Self::closed(min, max)
+        }
+    }
+
+    /// (0, infinity): lengths.
+    pub const POSITIVE: Range = Range {
+        min: 0.0,
+        max: f64::INFINITY,
+        min_inclusive: false,
+        max_inclusive: false,
+    };
+
+    pub fn contains(&self, v: f64) -> bool {
+        let above = if self.min_inclusive {
+            v >= self.min
+        } else {
+            v > self.min
+        };
+        let below = if self.max_inclusive {
+            v <= self.max
+        } else {
+            v < self.max
+        };
+        above && below
+    }
+}
+
+impl std::fmt::Display for Range {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "{}{}, {}{}",
+            if self.min_inclusive { "[" } else { "(" },
+            self.min,
+            self.max,
+            if self.max_inclusive { "]" } else { ")" }
+        )
+    }
+}
+
+impl MethodSpec {
+    /// Refuses lights the method does not render, naming the first such light.
+    pub fn check_lights(&self, lighting: &Lighting) -> Result<()> {
+        match lighting
+            .lights
+            .iter()
+            .position(|l| !self.lights.contains(&l.kind()))
+        {
+            None => Ok(()),
+            Some(i) => {
+                let kinds: Vec<&str> = self.lights.iter().map(|k| k.name()).collect();
+                Err(Error::param(
+                    format!("lights[{i}]"),
+                    format!(
+                        "method \"{}\" is lit by {} lights only; remove the others",
+                        self.name,
+                        kinds.join(", ")
+                    ),
+                ))
+            }
+        }
+    }
+}
+
+impl ParamSpec {
+    /// `value` checked against the parameter's range; the error names `render.KEY`.
+    pub fn check(&self, value: f64) -> Result<()> {
+        let range = match &self.kind {
+            ParamKind::Float { range, .. } | ParamKind::Int { range } => range,
+            _ => return Ok(()),
+        };
+        if range.contains(value) {
+            Ok(())
+        } else {
+            Err(self.error(format!("must be in {range}, got {value}")))
+        }
+    }
+
+    /// As [`ParamSpec::check`] for an optional value; absent is fine.
+    pub fn check_optional(&self, value: Option<f32>) -> Result<()> {
+        value.map_or(Ok(()), |v| self.check(v as f64))
+    }
+
+    /// An error about this parameter, naming `render.KEY`.
+    pub fn error(&self, message: impl Into<String>) -> Error {
+        Error::param(format!("render.{}", self.key), message)
+    }
+}
+
+/// A rendering method's parameters: a struct whose fields are the method's keys in `[render]`
+/// (serde, unknown keys refused), checked against its [`MethodSpec`].
+pub trait RenderMethod: Clone + Debug + PartialEq + Default + Serialize + DeserializeOwned {
+    const SPEC: MethodSpec;
+
+    /// Checks every parameter against the spec's ranges and their relations, and brings them to
+    /// the form the renderer reads (unit normals).
+    fn resolve(self) -> Result<Self>;
+
+    fn render(
+        &self,
+        input: &MethodInput,
+        compute: &Compute,
+        progress: &dyn Progress,
+    ) -> Result<Rendered>;
+}
+
+/// The method a scene renders with when its `[render]` names none.
+pub const DEFAULT_METHOD: &str = "gradient";
+
+/// The registered method called `name`.
+pub fn find(name: &str) -> Option<&'static MethodSpec> {
+    METHODS.iter().copied().find(|m| m.name == name)
+}
+
+/// The registry as JSON: each method's spec with each parameter's default (from the
+/// parameters' `Default`) beside its range.
+pub fn describe() -> Value {
+    Value::Array(
+        METHODS
+            .iter()
+            .zip(defaults())
+            .map(|(spec, defaults)| {
+                let mut entry = crate::json::tree(spec);
+                if let Some(params) = entry.get_mut("params").and_then(Value::as_array_mut) {
+                    for param in params {
+                        let key = param["key"].as_str().unwrap_or_default().to_owned();
+                        param["default"] = defaults.get(&key).cloned().unwrap_or(Value::Null);
+                    }
+                }
+                entry
+            })
+            .collect(),
+    )
+}
+
+impl Method {
+    /// The method of a scene's `[render]` table: `method` picks the registered method (default
+    /// [`DEFAULT_METHOD`]), the other keys are its parameters. Errors name `render.KEY`.
+    pub fn from_table(mut table: Map<String, Value>) -> Result<Method> {
+        let name = match table.remove("method") {
+            None => DEFAULT_METHOD.to_owned(),
+            Some(Value::String(name)) => name,
+            Some(other) => {
+                return Err(Error::param(
+                    "render.method",
+                    format!("must be a method name, got {other}"),
+                ))
+            }
+        };
+        let spec = find(&name).ok_or_else(|| {
+            Error::param(
+                "render.method",
+                format!("unknown method '{name}'; known: {}", names().join(", ")),
+            )
+        })?;
+        if let Some(key) = table
+            .keys()
+            .find(|key| !spec.params.iter().any(|p| p.key == key.as_str()))
+        {
+            return Err(foreign_key(spec, key));
+        }
+        Self::parse_params(spec.name, Value::Object(table))
+    }
+
+    /// The method's registry entry.
+    pub fn spec(&self) -> &'static MethodSpec {
+        Self::spec_of(self)
+    }
+
+    /// The parameters as JSON, `method` naming the method (the EXR header's `occlux/method`).
+    pub fn to_json(&self) -> Value {
+        crate::json::tree(self)
+    }
+}
+
+/// The registered method names.
+pub fn names() -> Vec<&'static str> {
+    METHODS.iter().map(|m| m.name).collect()
+}
+
+/// The error for a key that `spec` does not take: which methods do, or what it takes.
+fn foreign_key(spec: &MethodSpec, key: &str) -> Error {
+    let owners: Vec<String> = METHODS
+        .iter()
+        .filter(|m| m.params.iter().any(|p| p.key == key))
+        .map(|m| format!("\"{}\"", m.name))
+        .collect();
+    let message = if owners.is_empty() {
+        let keys: Vec<&str> = spec.params.iter().map(|p| p.key).collect();
+        format!(
+            "not a parameter of method = \"{}\" (it takes: {})",
+            spec.name,
+            keys.join(", ")
+        )
+    } else {
+        format!(
+            "only for method = {} (not \"{}\")",
+            owners.join(" or "),
+            spec.name
+        )
+    };
+    Error::param(format!("render.{key}"), message)
+}
+
+/// Deserializes and resolves one method's parameters; errors name `render.KEY`.
+fn parse<P: RenderMethod>(value: Value) -> Result<P> {
+    let params: P = serde_path_to_error::deserialize(value).map_err(|e| {
+        let path = e.path().to_string();
+        let key = if path == "." {
+            "render".to_owned()
+        } else {
+            format!("render.{path}")
+        };
+        Error::param(key, e.inner().to_string())
+    })?;
+    params.resolve()
+}
+
+/// Declares the registered methods: the [`Method`] enum (serde, internally tagged by `method`),
+/// [`METHODS`], and the dispatch from a method to its parameters' [`RenderMethod`] impl.
+macro_rules! methods {
+    ($($variant:ident => $params:ty),* $(,)?) => {
+        /// A scene's rendering method with its parameters.
+        #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+        #[serde(tag = "method", rename_all = "lowercase")]
+        pub enum Method {
+            $($variant($params),)*
+        }
+
+        /// Every registered method, in menu order.
+        pub const METHODS: &[&MethodSpec] = &[$(&<$params as RenderMethod>::SPEC,)*];
+
+        /// Each method's default parameters as JSON, in the order of [`METHODS`].
+        fn defaults() -> Vec<Map<String, Value>> {
+            let as_map = |v: Value| match v {
+                Value::Object(map) => map,
+                _ => Map::new(),
+            };
+            vec![$(as_map(crate::json::tree(&<$params>::default())),)*]
+        }
+
+        impl Method {
+            fn parse_params(name: &str, value: Value) -> Result<Method> {
+                $(if name == <$params as RenderMethod>::SPEC.name {
+                    return parse::<$params>(value).map(Method::$variant);
+                })*
+                Err(Error::param("render.method", format!("unknown method '{name}'")))
+            }
+
+            fn spec_of(&self) -> &'static MethodSpec {
+                match self {
+                    $(Method::$variant(_) => &<$params as RenderMethod>::SPEC,)*
+                }
+            }
+
+            /// Renders the method for an already loaded volume.
+            pub fn render(
+                &self,
+                input: &MethodInput,
+                compute: &Compute,
+                progress: &dyn Progress,
+            ) -> Result<Rendered> {
+                match self {
+                    $(Method::$variant(params) => params.render(input, compute, progress),)*
+                }
+            }
+        }
+    };
+}
+
+methods! {
+    Unshaded => crate::render::raycast::UnshadedParams,
+    Gradient => crate::render::raycast::GradientParams,
+    Ao => crate::render::ao_shaded::AoParams,
+    Dos => crate::render::dos::DosParams,
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn ranges_print_and_hold_their_bounds() {
+        let r = Range::below(0.0, 90.0);
+        assert_eq!(r.to_string(), "[0, 90)");
+        assert!(r.contains(0.0) && r.contains(89.99) && !r.contains(90.0));
+        assert!(!Range::POSITIVE.contains(0.0) && Range::POSITIVE.contains(1e-30));
+        assert!(!Range::POSITIVE.contains(f64::NAN) && !Range::POSITIVE.contains(f64::INFINITY));
+    }
+
+    #[test]
+    fn foreign_keys_name_their_methods() {
+        let gradient = find("gradient").unwrap();
+        let msg = foreign_key(gradient, "theta_deg").to_string();
+        assert!(
+            msg.contains("render.theta_deg") && msg.contains("\"dos\""),
+            "{msg}"
+        );
+        let msg = foreign_key(gradient, "colour").to_string();
+        assert!(msg.contains("it takes: step, ert_threshold"), "{msg}");
+    }
+}
