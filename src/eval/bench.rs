@@ -8,8 +8,11 @@ use crate::error::{Error, Result};
 use crate::eval::dos_accuracy::ambient_only;
 use crate::gpu::{Compute, DeviceChoice};
 use crate::progress::NoProgress;
+use crate::registry::{Method, RenderMethod};
 use crate::render::dos::{self, DosInput, DosParams};
-use crate::render::raycast::{cpu, gpu, GradientShading, RaycastInput, RaycastParams, Shading};
+use crate::render::raycast::{
+    cpu, gpu, GradientParams, RaycastInput, RaycastParams, UnshadedParams,
+};
 use crate::scene::{Scene, SourceKind};
 use serde::Serialize;
 use std::path::{Path, PathBuf};
@@ -40,7 +43,10 @@ pub struct BenchArgs {
 /// One timed case.
 #[derive(Serialize, Debug, Clone)]
 pub struct BenchRow {
-    pub method: &'static str,
+    /// The case: the registry's method name, with DOS's grid (`dos-n5`).
+    pub method: String,
+    /// Every parameter of the method, as in a scene's `[render]`.
+    pub params: serde_json::Value,
     pub device: String,
     pub size: u32,
     #[serde(flatten)]
@@ -50,8 +56,87 @@ pub struct BenchRow {
     pub ratio_to_gradient: f64,
 }
 
-/// DOS grids timed, with their method names.
-const DOS_GRIDS: [(u32, &str); 3] = [(2, "dos-n2"), (5, "dos-n5"), (13, "dos-n13")];
+/// DOS grids timed.
+const DOS_GRIDS: [u32; 3] = [2, 5, 13];
+
+/// The timed cases: the ray caster's registered methods and DOS at each of [`DOS_GRIDS`], at
+/// their registry defaults otherwise.
+fn cases() -> Vec<(String, Method)> {
+    let mut cases = vec![
+        (
+            UnshadedParams::SPEC.name.to_owned(),
+            Method::Unshaded(UnshadedParams::default()),
+        ),
+        (
+            GradientParams::SPEC.name.to_owned(),
+            Method::Gradient(GradientParams::default()),
+        ),
+    ];
+    for grid in DOS_GRIDS {
+        let params = DosParams {
+            grid,
+            ..DosParams::default()
+        };
+        cases.push((
+            format!("{}-n{grid}", DosParams::SPEC.name),
+            Method::Dos(params),
+        ));
+    }
+    cases
+}
+
+/// What every case renders: the volume, its table, the camera at the size timed, the lights.
+struct View<'a> {
+    volume: &'a crate::volume::Volume,
+    lut: &'a crate::classify::Lut,
+    camera: &'a crate::camera::Camera,
+    lighting: &'a crate::lights::Lighting,
+}
+
+/// Renders `method` once on the CPU or, with `uploaded`, on the GPU with the volume resident.
+fn render_resident(
+    method: &Method,
+    view: &View,
+    uploaded: Option<&(&std::sync::Arc<crate::gpu::GpuContext>, gpu::GpuVolume)>,
+) -> Result<()> {
+    let raycast = |params: &RaycastParams| {
+        let input = RaycastInput {
+            volume: view.volume,
+            lut: view.lut,
+            camera: view.camera,
+            lighting: view.lighting,
+            params,
+            ao: None,
+        };
+        match uploaded {
+            Some((ctx, volume)) => gpu::render_uploaded(ctx, volume, &input, &NoProgress),
+            None => cpu::render(&input, &NoProgress),
+        }
+    };
+    match method {
+        Method::Unshaded(p) => raycast(&p.raycast()).map(drop),
+        Method::Gradient(p) => raycast(&p.raycast()).map(drop),
+        Method::Dos(params) => {
+            let input = DosInput {
+                volume: view.volume,
+                lut: view.lut,
+                camera: view.camera,
+                lighting: view.lighting,
+                params,
+            };
+            match uploaded {
+                Some((ctx, volume)) => {
+                    dos::gpu::render_uploaded(ctx, volume, &input, &NoProgress).map(drop)
+                }
+                None => dos::cpu::render(&input, &NoProgress).map(drop),
+            }
+        }
+        Method::Ao(_) => Err(Error::param(
+            "bench",
+            "AO-shaded DVR is timed by `occlux bench-ao` (its AO volume) and `bench` (the ray caster)",
+        )),
+    }
+}
 
 #[derive(Serialize)]
 struct BenchReport<'a> {
@@ -76,10 +161,6 @@ pub fn run(args: &BenchArgs, quiet: bool) -> Result<()> {
     let mut dos_scene = scene.clone();
     ambient_only(&mut dos_scene);
     let devices = devices(args.device, quiet)?;
-    let methods = [
-        ("unshaded", Shading::Unshaded),
-        ("gradient", Shading::Gradient(GradientShading::default())),
-    ];
     let mut rows = vec![];
     for compute in &devices {
         // The GPU keeps the volume resident across renders, as an interactive session would:
@@ -103,55 +184,32 @@ pub fn run(args: &BenchArgs, quiet: bool) -> Result<()> {
             let mut camera = scene.camera;
             camera.width = size;
             camera.height = size;
-            let mut times: Vec<(&'static str, Timing)> = vec![];
-            for (name, shading) in methods {
-                let params = RaycastParams {
-                    shading,
-                    ..RaycastParams::default()
+            let mut times: Vec<(String, Method, Timing)> = vec![];
+            for (label, method) in cases() {
+                // DOS is lit by the ambient light alone (its registry entry's lights).
+                let lighting = match method {
+                    Method::Dos(_) => &dos_scene.lighting,
+                    _ => &scene.lighting,
                 };
-                let input = RaycastInput {
+                let view = View {
                     volume: &volume,
                     lut: &lut,
                     camera: &camera,
-                    lighting: &scene.lighting,
-                    params: &params,
-                    ao: None,
+                    lighting,
                 };
-                let render_once = || match &uploaded {
-                    Some((ctx, uploaded)) => {
-                        gpu::render_uploaded(ctx, uploaded, &input, &NoProgress).map(drop)
-                    }
-                    None => cpu::render(&input, &NoProgress).map(drop),
-                };
-                times.push((name, timed(args.repeats, render_once)?));
-            }
-            for (grid, name) in DOS_GRIDS {
-                let params = DosParams {
-                    grid,
-                    ..DosParams::default()
-                };
-                let input = DosInput {
-                    volume: &volume,
-                    lut: &lut,
-                    camera: &camera,
-                    lighting: &dos_scene.lighting,
-                    params: &params,
-                };
-                let render_once = || match &uploaded {
-                    Some((ctx, uploaded)) => {
-                        dos::gpu::render_uploaded(ctx, uploaded, &input, &NoProgress).map(drop)
-                    }
-                    None => dos::cpu::render(&input, &NoProgress).map(drop),
-                };
-                times.push((name, timed(args.repeats, render_once)?));
+                let timing = timed(args.repeats, || {
+                    render_resident(&method, &view, uploaded.as_ref())
+                })?;
+                times.push((label, method, timing));
             }
             let gradient = times
                 .iter()
-                .find(|(name, _)| *name == "gradient")
-                .map_or(f64::NAN, |(_, t)| t.median_ms);
-            for (name, timing) in times {
+                .find(|(label, ..)| label == "gradient")
+                .map_or(f64::NAN, |(.., t)| t.median_ms);
+            for (label, method, timing) in times {
                 let row = BenchRow {
-                    method: name,
+                    method: label,
+                    params: method.to_json(),
                     device: compute.describe(),
                     size,
                     timing,

@@ -11,6 +11,7 @@ use crate::error::{Error, Result};
 use crate::gpu::{Compute, DeviceChoice};
 use crate::lights::Light;
 use crate::progress::NoProgress;
+use crate::registry::Method;
 use crate::render::dos::{self, ConeDistance, DosInput, DosParams};
 use crate::render::reference::{self, Estimator, ReferenceImage, ReferenceInput, ReferenceParams};
 use crate::render::RenderImage;
@@ -58,6 +59,8 @@ pub struct AccuracyRow {
     pub scene: String,
     pub theta_deg: f32,
     pub grid: u32,
+    /// Every DOS parameter of the row, as in a scene's `[render]`.
+    pub params: serde_json::Value,
     /// Relative RMSE of DOS against the cone reference of the same theta.
     pub cone_rel_rmse: f64,
     /// Mean DOS radiance over the cone reference's, minus 1 (negative: DOS is darker).
@@ -177,12 +180,32 @@ pub fn reference_image(
 }
 
 /// Runs the table, prints it unless `quiet`, and writes the JSON.
+/// DOS's parameters for one row: theta and n, the exact cone distance, the rest at the
+/// registry's defaults.
+fn params(args: &AccuracyArgs, theta_deg: f32, grid: u32) -> DosParams {
+    DosParams {
+        theta_deg,
+        grid,
+        distance: ConeDistance::Exact,
+        self_occlusion: args.self_occlusion,
+        ..DosParams::default()
+    }
+}
+
 pub fn run(args: &AccuracyArgs, quiet: bool) -> Result<()> {
     if args.scenes.is_empty() || args.thetas.is_empty() || args.grids.is_empty() {
         return Err(Error::param(
             "--scenes/--thetas/--grids",
             "need at least one of each",
         ));
+    }
+    // Every case is checked against the registry's ranges before any reference is sampled.
+    for &theta_deg in &args.thetas {
+        for &grid in &args.grids {
+            params(args, theta_deg, grid)
+                .validate()
+                .map_err(|e| Error::param("--thetas/--grids", e.to_string()))?;
+        }
     }
     let (compute, notice) = Compute::resolve(args.device)?;
     if let (Some(notice), false) = (notice, quiet) {
@@ -212,13 +235,7 @@ pub fn run(args: &AccuracyArgs, quiet: bool) -> Result<()> {
                 args.spp,
             )?;
             for &grid in &args.grids {
-                let params = DosParams {
-                    theta_deg,
-                    grid,
-                    distance: ConeDistance::Exact,
-                    self_occlusion: args.self_occlusion,
-                    ..DosParams::default()
-                };
+                let params = params(args, theta_deg, grid);
                 let input = DosInput {
                     volume: &volume,
                     lut: &lut,
@@ -234,6 +251,7 @@ pub fn run(args: &AccuracyArgs, quiet: bool) -> Result<()> {
                     scene: name.clone(),
                     theta_deg,
                     grid,
+                    params: Method::Dos(params.clone()).to_json(),
                     cone_rel_rmse: cone.rmse,
                     cone_rel_bias: cone.bias,
                     ambient_rel_rmse: relative_error(&image, &ambient)?.rmse,

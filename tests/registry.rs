@@ -1,0 +1,324 @@
+//! The method registry is what the methods are: each entry's parameters are exactly its serde
+//! struct's fields, its ranges are enforced with errors naming `render.KEY`, its choices parse,
+//! its shaders exist, and what it says reaches the EXR header and `occlux methods --json`.
+
+use occlux::export::exr::read_exr;
+use occlux::gpu::Compute;
+use occlux::pipeline::{self, OutputOptions};
+use occlux::progress::NoProgress;
+use occlux::registry::{self, Method, MethodSpec, ParamKind, METHODS};
+use occlux::scene::Scene;
+use serde_json::{json, Map, Value};
+use std::collections::BTreeSet;
+use std::path::Path;
+
+fn table(method: &str, extra: Value) -> Map<String, Value> {
+    let mut table = Map::new();
+    table.insert("method".into(), json!(method));
+    if let Value::Object(extra) = extra {
+        table.extend(extra);
+    }
+    table
+}
+
+fn parse(method: &str, extra: Value) -> occlux::Result<Method> {
+    Method::from_table(table(method, extra))
+}
+
+fn keys(spec: &MethodSpec) -> BTreeSet<String> {
+    spec.params.iter().map(|p| p.key.to_owned()).collect()
+}
+
+#[test]
+fn each_entry_lists_exactly_its_structs_fields() {
+    let names: BTreeSet<&str> = METHODS.iter().map(|m| m.name).collect();
+    assert_eq!(names.len(), METHODS.len(), "names are unique");
+    for spec in METHODS {
+        let method = parse(spec.name, json!({})).unwrap();
+        assert_eq!(method.spec().name, spec.name);
+        let Value::Object(mut fields) = method.to_json() else {
+            panic!("{}: not an object", spec.name)
+        };
+        assert_eq!(fields.remove("method"), Some(json!(spec.name)));
+        let fields: BTreeSet<String> = fields.keys().cloned().collect();
+        assert_eq!(fields, keys(spec), "{}", spec.name);
+        // The JSON form reads back as the same method (EXR headers are data).
+        let back: Method = serde_json::from_value(method.to_json()).unwrap();
+        assert_eq!(back, method);
+    }
+}
+
+#[test]
+fn every_choice_parses_and_is_written_back() {
+    for spec in METHODS {
+        for param in spec.params {
+            let ParamKind::Choice { options } = &param.kind else {
+                continue;
+            };
+            for option in *options {
+                let method = parse(spec.name, json!({ param.key: option.name }))
+                    .unwrap_or_else(|e| panic!("{} {}={}: {e}", spec.name, param.key, option.name));
+                assert_eq!(method.to_json()[param.key], json!(option.name));
+            }
+            let err = parse(spec.name, json!({ param.key: "no-such-option" }))
+                .unwrap_err()
+                .to_string();
+            assert!(err.contains(&format!("render.{}", param.key)), "{err}");
+        }
+    }
+}
+
+/// Parameters whose acceptance depends on another one: what must be set with them.
+fn companions(key: &str) -> Value {
+    match key {
+        "variance_max" => json!({ "opacity_modulation": true }),
+        _ => json!({}),
+    }
+}
+
+/// `key = value` (a whole number for integer parameters) with its companions.
+fn with(key: &str, value: f64, is_int: bool) -> Value {
+    let mut extra = companions(key);
+    extra[key] = if is_int {
+        json!(value as i64)
+    } else {
+        json!(value)
+    };
+    extra
+}
+
+#[test]
+fn ranges_are_enforced_at_their_bounds_with_the_key_named() {
+    let mut checked = 0;
+    for spec in METHODS {
+        for param in spec.params {
+            let range = match &param.kind {
+                ParamKind::Float { range, .. } | ParamKind::Int { range } => range,
+                _ => continue,
+            };
+            let is_int = matches!(param.kind, ParamKind::Int { .. });
+            let step = if is_int { 1.0 } else { 1e-3 };
+            let bounds = [
+                (range.min, range.min_inclusive, -step),
+                (range.max, range.max_inclusive, step),
+            ];
+            for (bound, inclusive, outward) in bounds {
+                if !bound.is_finite() {
+                    continue;
+                }
+                let at = parse(spec.name, with(param.key, bound, is_int));
+                assert_eq!(
+                    at.is_ok(),
+                    inclusive,
+                    "{} {} = {bound}: {at:?}",
+                    spec.name,
+                    param.key
+                );
+                let outside = parse(spec.name, with(param.key, bound + outward, is_int))
+                    .unwrap_err()
+                    .to_string();
+                assert!(
+                    outside.contains(&format!("render.{}", param.key)),
+                    "{outside}"
+                );
+                checked += 1;
+            }
+        }
+    }
+    assert!(checked >= 10, "{checked} bounds checked");
+}
+
+#[test]
+fn type_errors_and_foreign_keys_name_the_key() {
+    for (method, extra, key) in [
+        ("dos", json!({ "theta_deg": "wide" }), "render.theta_deg"),
+        ("dos", json!({ "grid": 2.5 }), "render.grid"),
+        (
+            "dos",
+            json!({ "clip_planes": [{ "point": [0, 0] }] }),
+            "render.clip_planes",
+        ),
+        ("ao", json!({ "direct": "yes" }), "render.direct"),
+        ("gradient", json!({ "ao_radius": 4 }), "render.ao_radius"),
+        ("unshaded", json!({ "colour": 4 }), "render.colour"),
+    ] {
+        let err = parse(method, extra.clone()).unwrap_err().to_string();
+        assert!(err.contains(key), "{method} {extra}: {err}");
+    }
+    let err = parse("gradient", json!({ "theta_deg": 30 }))
+        .unwrap_err()
+        .to_string();
+    assert!(err.contains("only for method = \"dos\""), "{err}");
+    let err = parse("magic", json!({})).unwrap_err().to_string();
+    assert!(err.contains("render.method") && err.contains("unshaded, gradient, ao, dos"));
+}
+
+#[test]
+fn each_method_names_shaders_that_exist_and_every_shader_belongs_to_one() {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("shaders");
+    let on_disk: BTreeSet<String> = std::fs::read_dir(&dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .filter(|n| n.ends_with(".wgsl"))
+        .collect();
+    let includes = |name: &str| -> Vec<String> {
+        std::fs::read_to_string(dir.join(name))
+            .unwrap()
+            .lines()
+            .filter_map(|l| l.trim().strip_prefix("//#include"))
+            .map(|rest| rest.trim().trim_matches('"').to_owned())
+            .collect()
+    };
+    // What the registered methods use: their kernels and, transitively, their includes.
+    let mut used: BTreeSet<String> = BTreeSet::new();
+    let mut todo: Vec<String> = METHODS
+        .iter()
+        .flat_map(|m| m.shaders.iter().map(|s| s.to_string()))
+        .collect();
+    while let Some(name) = todo.pop() {
+        assert!(on_disk.contains(&name), "{name} is not in shaders/");
+        if used.insert(name.clone()) {
+            todo.extend(includes(&name));
+        }
+    }
+    // Same names everywhere: a kernel (a file with an entry point) is named after the folder
+    // that holds its CPU and GPU twins (dos.wgsl: src/render/dos/; vao_stats.wgsl: src/ao/vao/).
+    let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
+    for name in &used {
+        let text = std::fs::read_to_string(dir.join(name)).unwrap();
+        if !text.contains("@compute") {
+            continue;
+        }
+        let stem = name.trim_end_matches(".wgsl").split('_').next().unwrap();
+        let folder = ["render", "ao"]
+            .iter()
+            .map(|area| src.join(area).join(stem))
+            .find(|f| f.join("cpu.rs").is_file() && f.join("gpu.rs").is_file());
+        assert!(
+            folder.is_some(),
+            "{name}: no src/render/{stem}/ or src/ao/{stem}/ twins"
+        );
+    }
+    let strays: Vec<&String> = on_disk.difference(&used).collect();
+    assert!(strays.is_empty(), "shaders no method uses: {strays:?}");
+}
+
+#[test]
+fn dos_takes_only_the_lights_its_entry_lists() {
+    let spec = registry::find("dos").unwrap();
+    let text = r#"
+[volume]
+phantom = "sphere"
+size = 8
+[camera]
+position = [0, -4, 0]
+width = 4
+height = 4
+[[lights]]
+type = "ambient"
+radiance = 1
+[[lights]]
+type = "directional"
+direction = [0, 0, 1]
+irradiance = 1
+[render]
+method = "dos"
+"#;
+    let scene = Scene::parse(text, Path::new(".")).unwrap();
+    let err = spec.check_lights(&scene.lighting).unwrap_err().to_string();
+    assert!(
+        err.contains("lights[1]") && err.contains("ambient"),
+        "{err}"
+    );
+    let volume = scene.load_volume().unwrap();
+    let render = pipeline::render(&scene, &volume, &Compute::Cpu, &NoProgress);
+    assert_eq!(render.err().map(|e| e.to_string()), Some(err));
+}
+
+#[test]
+fn the_exr_header_carries_the_method_lights_and_camera_as_json() {
+    let text = r#"
+background = [0.1, 0.2, 0.3]
+[volume]
+phantom = "sphere"
+size = 8
+[camera]
+position = [0, -4, 0]
+width = 6
+height = 4
+[[lights]]
+type = "ambient"
+radiance = [1.0, 0.9, 0.8]
+[render]
+method = "dos"
+theta_deg = 30
+grid = 3
+distance = "approximate"
+"#;
+    let scene = Scene::parse(text, Path::new(".")).unwrap();
+    let volume = scene.load_volume().unwrap();
+    let rendered = pipeline::render(&scene, &volume, &Compute::Cpu, &NoProgress).unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let written = pipeline::write_render(
+        &rendered.image,
+        &scene,
+        dir.path(),
+        "s",
+        &OutputOptions::default(),
+    )
+    .unwrap();
+    let exr = read_exr(&written[0]).unwrap();
+    let header = |key: &str| -> Value { serde_json::from_str(&exr.metadata[key]).unwrap() };
+    let method: Method = serde_json::from_value(header("occlux/method")).unwrap();
+    assert_eq!(method, scene.method);
+    assert_eq!(header("occlux/method")["theta_deg"], json!(30.0));
+    let lighting = header("occlux/lighting");
+    assert_eq!(
+        lighting["lights"],
+        json!([{ "type": "ambient", "radiance": [1.0, 0.9, 0.8] }])
+    );
+    assert_eq!(lighting["background"], json!([0.1, 0.2, 0.3]));
+    let camera = header("occlux/camera");
+    assert_eq!(camera["width"], json!(6));
+    assert_eq!(camera["projection"]["type"], json!("perspective"));
+    let fov = camera["projection"]["fov_y"].as_f64().unwrap();
+    assert!((fov - 40f64.to_radians()).abs() < 1e-6, "{fov}");
+}
+
+#[test]
+fn methods_json_is_the_registry_with_defaults() {
+    let run = std::process::Command::new(env!("CARGO_BIN_EXE_occlux"))
+        .args(["methods", "--json"])
+        .output()
+        .unwrap();
+    assert!(run.status.success());
+    let printed: Value = serde_json::from_slice(&run.stdout).unwrap();
+    assert_eq!(printed, registry::describe());
+    let dos = printed
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|m| m["name"] == "dos")
+        .unwrap();
+    let theta = dos["params"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|p| p["key"] == "theta_deg")
+        .unwrap();
+    assert_eq!(theta["default"], json!(50.0));
+    assert_eq!(theta["range"]["max"], json!(90.0));
+    assert_eq!(theta["range"]["max_inclusive"], json!(false));
+    assert_eq!(dos["lights"], json!(["ambient"]));
+    let text = std::process::Command::new(env!("CARGO_BIN_EXE_occlux"))
+        .arg("methods")
+        .output()
+        .unwrap();
+    let text = String::from_utf8_lossy(&text.stdout);
+    for spec in METHODS {
+        assert!(
+            text.contains(&format!("{}: {}", spec.name, spec.summary)),
+            "{text}"
+        );
+    }
+}
