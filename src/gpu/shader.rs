@@ -24,6 +24,7 @@ const SOURCES: &[(&str, &str)] = &[
         "vao_estimate.wgsl",
         include_str!("../../shaders/vao_estimate.wgsl"),
     ),
+    ("view.wgsl", include_str!("../../shaders/view.wgsl")),
 ];
 
 const INCLUDE: &str = "//#include";
@@ -269,6 +270,7 @@ mod tests {
             "{text}"
         );
         assert_eq!(text.matches("fn sample_volume(").count(), 1);
+        assert_eq!(text.matches("struct View {").count(), 1);
         // The include stands where its directive stood: before the kernel that uses it.
         assert!(text.find("fn sample_volume(").unwrap() < text.find("fn main(").unwrap());
     }
