@@ -2,6 +2,20 @@
 // mirror src/classify/lut.rs and src/render/raycast/cpu.rs. The including kernel declares
 // `lut: array<vec4<f32>>` (two vec4s per entry: (sigma_t, albedo) and (emission, unused)).
 
+// The table's axes; src/gpu/lut_shape.rs's LutShapeUniform mirrors it field for field.
+struct LutShape {
+    value_min: f32,
+    value_max: f32,
+    // 0: a 1D table (value only).
+    gradient_max: f32,
+    value_entries: u32,
+    gradient_entries: u32,
+    // To 32 bytes: a struct member of a uniform is followed by a multiple of 16 bytes.
+    _pad0: u32,
+    _pad1: u32,
+    _pad2: u32,
+};
+
 struct Optical {
     sigma_t: f32,
     albedo: vec3<f32>,
@@ -31,16 +45,16 @@ fn lut_blend(cv: vec3<f32>, cg: vec3<f32>, nv: f32, half: u32) -> vec4<f32> {
     return mix(row0, row1, cg.z);
 }
 
-// Lut::lookup. range: value min, value max, gradient max (0: 1D table); size: entries along
-// value, along gradient.
-fn lut_lookup(v: f32, g: f32, range: vec4<f32>, size: vec4<f32>) -> Optical {
-    let cv = lut_coord(v, range.x, range.y, size.x);
+// Lut::lookup of value v and gradient magnitude g.
+fn lut_lookup(v: f32, g: f32, shape: LutShape) -> Optical {
+    let nv = f32(shape.value_entries);
+    let cv = lut_coord(v, shape.value_min, shape.value_max, nv);
     var cg = vec3<f32>(0.0, 0.0, 0.0);
-    if (range.z > 0.0) {
-        cg = lut_coord(g, 0.0, range.z, size.y);
+    if (shape.gradient_max > 0.0) {
+        cg = lut_coord(g, 0.0, shape.gradient_max, f32(shape.gradient_entries));
     }
-    let a = lut_blend(cv, cg, size.x, 0u);
-    let b = lut_blend(cv, cg, size.x, 1u);
+    let a = lut_blend(cv, cg, nv, 0u);
+    let b = lut_blend(cv, cg, nv, 1u);
     return Optical(a.x, a.yzw, b.xyz);
 }
 

@@ -2,46 +2,61 @@
 // It mirrors src/render/dos/cpu.rs step for step (see src/render/dos/mod.rs for the model).
 
 //#include "common.wgsl"
+//#include "view.wgsl"
 //#include "classify.wgsl"
 
 const BACKGROUND_DEPTH: f32 = 1.0e10;
 const MAX_CLIP_PLANES: u32 = 6u;
 
-struct Params {
-    // The view: camera and volume placement (raycast::gpu::ViewUniform).
-    cam_position: vec4<f32>,   // w: 1 perspective, 0 orthographic
-    cam_forward: vec4<f32>,
-    cam_right: vec4<f32>,
-    cam_up: vec4<f32>,
-    image: vec4<f32>,          // half extent x, half extent y, width, height
-    box_lo: vec4<f32>,
-    box_hi: vec4<f32>,
-    vol_origin: vec4<f32>,
-    vol_spacing: vec4<f32>,
-    vol_dims: vec4<f32>,
-    lut_range: vec4<f32>,      // value min, value max, gradient max (0: 1D table), unused
-    lut_size: vec4<f32>,       // entries along value, along gradient
-    ambient: vec4<f32>,
-    slabs: vec4<f32>,          // slice distance, depth of slice 0, cone samples, clip planes
-    march: vec4<f32>,          // x: 1 lock-step rays (t = depth), 0 view-aligned slices; y: planes;
-                               // z: 1 self-occlusion
-    clip_point: array<vec4<f32>, MAX_CLIP_PLANES>,
-    clip_normal: array<vec4<f32>, MAX_CLIP_PLANES>,
+// Material on the side the normal points to is removed (dos::ClipPlane).
+struct ClipPlane {
+    point: vec3<f32>,
+    normal: vec3<f32>,
 };
 
-// What changes from slab to slab.
+// Mirrored by dos::gpu::Params.
+struct Params {
+    view: View,
+    lut: LutShape,
+    ambient: vec3<f32>,
+    // Slab thickness d, and slab 0's depth along the forward axis (along the rays, lock-step).
+    slice_distance: f32,
+    first_depth: f32,
+    // Cone samples, and clipping planes in use.
+    sample_count: u32,
+    clip_count: u32,
+    // 1: slabs are lock-step distances along each ray; 0: view-aligned slices.
+    lock_step_rays: u32,
+    // Planes of the occlusion buffers: one per path length through the previous slab.
+    planes: u32,
+    // 1: a sample's light is attenuated through the front half of its own segment.
+    self_occlusion: u32,
+    clip_planes: array<ClipPlane, MAX_CLIP_PLANES>,
+};
+
+// One cone sample (dos::gpu::ConeSample).
+struct ConeSample {
+    // On the unit disc.
+    offset: vec2<f32>,
+    // The occlusion buffer's plane (its ring).
+    plane: u32,
+};
+
+// What changes from slab to slab (dos::gpu::Slab).
 struct Slab {
     index: u32,
     // The cone base's radius in pixels on the previous slab.
     radius_px: f32,
+    // To the 16 bytes of each slab's slice of the uniform buffer.
+    _pad0: u32,
+    _pad1: u32,
 };
 
 @group(0) @binding(0) var<uniform> params: Params;
 @group(0) @binding(1) var volume: texture_3d<f32>;
 @group(0) @binding(2) var volume_sampler: sampler;
 @group(0) @binding(3) var<storage, read> lut: array<vec4<f32>>;
-// Unit-disc offset (xy) and ring, the occlusion buffer's plane (z), per cone sample.
-@group(0) @binding(4) var<storage, read> samples: array<vec4<f32>>;
+@group(0) @binding(4) var<storage, read> samples: array<ConeSample>;
 // Occlusion buffers W, one plane per ring, laid out (row, plane, column): the previous slab's,
 // read; this slab's, written.
 @group(0) @binding(5) var<storage, read> previous: array<f32>;
@@ -55,18 +70,18 @@ struct Slab {
 
 // Index of plane p's texel (i, j) in the occlusion buffers.
 fn texel(p: u32, i: i32, j: i32) -> u32 {
-    return (u32(j) * u32(params.march.y) + p) * u32(params.image.z) + u32(i);
+    return (u32(j) * params.planes + p) * params.view.size.x + u32(i);
 }
 
 // V_k at a pixel: the average over the cone's samples of the previous buffer read bilinearly,
 // with indices clamped to the image (dos::cpu::cone_average, blended rows first).
 fn visibility(pixel: vec2<u32>) -> f32 {
-    let count = u32(params.slabs.z);
-    let last = vec2<i32>(params.image.zw) - 1;
+    let count = params.sample_count;
+    let last = vec2<i32>(params.view.size) - 1;
     var sum = 0.0;
     for (var s = 0u; s < count; s = s + 1u) {
         let q = samples[s];
-        let o = vec2<f32>(q.x, -q.y) * slab.radius_px;
+        let o = vec2<f32>(q.offset.x, -q.offset.y) * slab.radius_px;
         let whole = floor(o);
         let f = o - whole;
         let at = vec2<i32>(pixel) + vec2<i32>(whole);
@@ -74,7 +89,7 @@ fn visibility(pixel: vec2<u32>) -> f32 {
         let i1 = clamp(at.x + 1, 0, last.x);
         let j0 = clamp(at.y, 0, last.y);
         let j1 = clamp(at.y + 1, 0, last.y);
-        let p = u32(q.z);
+        let p = q.plane;
         let t0 = previous[texel(p, i0, j0)];
         let t1 = previous[texel(p, i1, j0)];
         let m0 = t0 + (previous[texel(p, i0, j1)] - t0) * f.y;
@@ -86,24 +101,27 @@ fn visibility(pixel: vec2<u32>) -> f32 {
 
 // Optical properties at p with clipped material removed (dos::material).
 fn material(p: vec3<f32>) -> Optical {
-    for (var i = 0u; i < u32(params.slabs.w); i = i + 1u) {
-        if (dot(p - params.clip_point[i].xyz, params.clip_normal[i].xyz) > 0.0) {
+    for (var i = 0u; i < params.clip_count; i = i + 1u) {
+        let plane = params.clip_planes[i];
+        if (dot(p - plane.point, plane.normal) > 0.0) {
             return Optical(0.0, vec3<f32>(0.0), vec3<f32>(0.0));
         }
     }
-    let c = (p - params.vol_origin.xyz) / params.vol_spacing.xyz;
+    let view = params.view;
+    let c = index_of(view, p);
+    let dims = volume_dims(view);
     var g = 0.0;
-    if (params.lut_range.z > 0.0) {
-        g = length(volume_gradient(volume, volume_sampler, c, params.vol_dims.xyz, params.vol_spacing.xyz));
+    if (params.lut.gradient_max > 0.0) {
+        g = length(volume_gradient(volume, volume_sampler, c, dims, view.spacing));
     }
-    let v = sample_volume(volume, volume_sampler, c, params.vol_dims.xyz);
-    return lut_lookup(v, g, params.lut_range, params.lut_size);
+    let v = sample_volume(volume, volume_sampler, c, dims);
+    return lut_lookup(v, g, params.lut);
 }
 
 @compute @workgroup_size(8, 8, 1)
 fn main(@builtin(global_invocation_id) id: vec3<u32>) {
-    let width = u32(params.image.z);
-    if (id.x >= width || id.y >= u32(params.image.w)) {
+    let width = params.view.size.x;
+    if (id.x >= width || id.y >= params.view.size.y) {
         return;
     }
     let index = id.x + width * id.y;
@@ -111,18 +129,11 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
     if (slab.index > 0u) {
         v = visibility(id.xy);
     }
-    let ray = camera_ray(
-        id.xy,
-        params.cam_position,
-        params.cam_forward.xyz,
-        params.cam_right.xyz,
-        params.cam_up.xyz,
-        params.image,
-    );
-    let span = box_span(ray.origin, ray.dir, params.box_lo.xyz, params.box_hi.xyz);
-    let rate = select(dot(ray.dir, params.cam_forward.xyz), 1.0, params.march.x == 1.0);
-    let d = params.slabs.x;
-    let z0 = params.slabs.y + f32(slab.index) * d;
+    let ray = camera_ray(params.view, id.xy);
+    let span = box_span(params.view, ray);
+    let rate = select(dot(ray.dir, params.view.forward), 1.0, params.lock_step_rays == 1u);
+    let d = params.slice_distance;
+    let z0 = params.first_depth + f32(slab.index) * d;
     let ta = max(z0 / rate, span.x);
     let tb = min((z0 + d) / rate, span.y);
     var tau = 0.0;
@@ -133,10 +144,10 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
             var e = eye[index];
             let alpha = 1.0 - exp(-o.sigma_t * dt);
             var lit = v;
-            if (params.march.z == 1.0) {
+            if (params.self_occlusion == 1u) {
                 lit = v * exp(-0.5 * o.sigma_t * dt);
             }
-            let light = alpha * o.albedo * params.ambient.xyz * lit + emitted(o, alpha, dt);
+            let light = alpha * o.albedo * params.ambient * lit + emitted(o, alpha, dt);
             let transmittance = e.w * (1.0 - alpha);
             if (e.w > 0.5 && transmittance <= 0.5) {
                 eye_depth[index] = vec2<f32>(ta + log(2.0 * e.w) / o.sigma_t, v);
@@ -145,7 +156,7 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
             tau = o.sigma_t * dt * rate / d;
         }
     }
-    for (var p = 0u; p < u32(params.march.y); p = p + 1u) {
+    for (var p = 0u; p < params.planes; p = p + 1u) {
         next[texel(p, i32(id.x), i32(id.y))] = v * exp(-tau * ring_lengths[p]);
     }
 }

@@ -2,41 +2,58 @@
 // src/render/raycast/cpu.rs step for step (see src/render/raycast/mod.rs for the model).
 
 //#include "common.wgsl"
+//#include "view.wgsl"
 //#include "classify.wgsl"
 
 const PI: f32 = 3.14159265358979;
 const BACKGROUND_DEPTH: f32 = 1.0e10;
 const MAX_LIGHTS: u32 = 8u;
 
+// Params.shading (raycast::gpu's SHADING_*).
+const SHADING_UNSHADED: u32 = 0u;
+const SHADING_GRADIENT: u32 = 1u;
+const SHADING_AO: u32 = 2u;
+// AO for the ambient light, gradient shading for the others.
+const SHADING_AO_GRADIENT: u32 = 3u;
+
+// Light.kind (raycast::gpu's LIGHT_*); ambient lights are summed into Params.ambient.
+const LIGHT_DIRECTIONAL: u32 = 1u;
+const LIGHT_POINT: u32 = 2u;
+
 struct Light {
-    // x: 1 directional, 2 point (ambient lights are summed into `ambient`).
-    kind: vec4<f32>,
     // Directional: unit direction towards the light; point: position.
-    vector: vec4<f32>,
+    vector: vec3<f32>,
+    kind: u32,
     // Irradiance (directional) or intensity (point).
-    colour: vec4<f32>,
+    colour: vec3<f32>,
 };
 
+// Mirrored by raycast::gpu::Params.
 struct Params {
-    cam_position: vec4<f32>,   // w: 1 perspective, 0 orthographic
-    cam_forward: vec4<f32>,
-    cam_right: vec4<f32>,
-    cam_up: vec4<f32>,
-    image: vec4<f32>,          // half extent x, half extent y, width, height
-    box_lo: vec4<f32>,
-    box_hi: vec4<f32>,
-    vol_origin: vec4<f32>,
-    vol_spacing: vec4<f32>,
-    vol_dims: vec4<f32>,
-    ambient: vec4<f32>,
-    background: vec4<f32>,
-    lut_range: vec4<f32>,      // value min, value max, gradient max (0: 1D table), unused
-    lut_size: vec4<f32>,       // entries along value, along gradient
-    march: vec4<f32>,          // step, ERT threshold, normal threshold, shading (0 unshaded, 1 gradient, 2 AO, 3 AO + gradient)
-    phong: vec4<f32>,          // specular, shininess, light count, opacity modulation (1)
-    band: vec4<f32>,           // first row of this dispatch, rows in it
-    cells: vec4<f32>,          // occupancy cells along x, y, z; voxels per cell
-    lights: array<Light, 8>,
+    view: View,
+    lut: LutShape,
+    ambient: vec3<f32>,
+    // Ray-marching step in world units.
+    step: f32,
+    background: vec3<f32>,
+    // Early ray termination below this transmittance.
+    ert_threshold: f32,
+    // Gradient magnitude from which a sample is fully surface-shaded.
+    normal_threshold: f32,
+    shading: u32,
+    // Phong lobe: weight and exponent.
+    specular: f32,
+    shininess: f32,
+    light_count: u32,
+    // 1: extinction scaled by ao_opacity.
+    opacity_modulation: u32,
+    // The band of rows this dispatch renders.
+    first_row: u32,
+    rows: u32,
+    // Occupancy cells along each axis, and voxels along each side of a cell.
+    cells: vec3<u32>,
+    cell_voxels: u32,
+    lights: array<Light, MAX_LIGHTS>,
 };
 
 @group(0) @binding(0) var<uniform> params: Params;
@@ -53,82 +70,81 @@ struct Params {
 
 // The occupancy cell holding index coordinate c (Occupancy::cell_of).
 fn cell_of(c: vec3<f32>) -> vec3<u32> {
-    let cell = floor(max(c, vec3<f32>(0.0)) / params.cells.w);
-    return vec3<u32>(min(cell, params.cells.xyz - 1.0));
+    let cell = floor(max(c, vec3<f32>(0.0)) / f32(params.cell_voxels));
+    return vec3<u32>(min(cell, vec3<f32>(params.cells) - 1.0));
 }
 
 fn occupied(cell: vec3<u32>) -> bool {
-    let n = vec3<u32>(params.cells.xyz);
+    let n = params.cells;
     return occupancy[cell.x + n.x * (cell.y + n.y * cell.z)] != 0u;
 }
 
 // Where the ray (index coordinates c0 + t dc) leaves the cell; outermost cells are unbounded
 // (Occupancy::exit).
 fn cell_exit(cell: vec3<u32>, c0: vec3<f32>, dc: vec3<f32>) -> f32 {
-    let n = vec3<u32>(params.cells.xyz);
+    let n = params.cells;
+    let side = f32(params.cell_voxels);
     var t = 3.0e38;
     for (var a = 0u; a < 3u; a = a + 1u) {
         if (dc[a] > 0.0 && cell[a] + 1u < n[a]) {
-            t = min(t, (f32(cell[a] + 1u) * params.cells.w - c0[a]) / dc[a]);
+            t = min(t, (f32(cell[a] + 1u) * side - c0[a]) / dc[a]);
         } else if (dc[a] < 0.0 && cell[a] > 0u) {
-            t = min(t, (f32(cell[a]) * params.cells.w - c0[a]) / dc[a]);
+            t = min(t, (f32(cell[a]) * side - c0[a]) / dc[a]);
         }
     }
     return t;
 }
 
 fn sample_at(p: vec3<f32>) -> f32 {
-    let c = (p - params.vol_origin.xyz) / params.vol_spacing.xyz;
-    return sample_volume(volume, volume_sampler, c, params.vol_dims.xyz);
+    return sample_volume(volume, volume_sampler, index_of(params.view, p), volume_dims(params.view));
 }
 
 fn ao_at(tex: texture_3d<f32>, p: vec3<f32>) -> f32 {
-    let c = (p - params.vol_origin.xyz) / params.vol_spacing.xyz;
-    return sample_volume(tex, volume_sampler, c, params.vol_dims.xyz);
+    return sample_volume(tex, volume_sampler, index_of(params.view, p), volume_dims(params.view));
 }
 
 fn gradient_at(p: vec3<f32>) -> vec3<f32> {
-    let c = (p - params.vol_origin.xyz) / params.vol_spacing.xyz;
-    return volume_gradient(volume, volume_sampler, c, params.vol_dims.xyz, params.vol_spacing.xyz);
+    let view = params.view;
+    return volume_gradient(volume, volume_sampler, index_of(view, p), volume_dims(view), view.spacing);
 }
 
 fn lookup(v: f32, g: f32) -> Optical {
-    return lut_lookup(v, g, params.lut_range, params.lut_size);
+    return lut_lookup(v, g, params.lut);
 }
 
 // Unit direction towards light l and the irradiance it delivers at p (as lights::incident).
 fn incident(l: u32, p: vec3<f32>, to_light: ptr<function, vec3<f32>>) -> vec3<f32> {
     let light = params.lights[l];
-    if (light.kind.x == 1.0) {
-        *to_light = light.vector.xyz;
-        return light.colour.xyz;
+    if (light.kind == LIGHT_DIRECTIONAL) {
+        *to_light = light.vector;
+        return light.colour;
     }
-    let d = light.vector.xyz - p;
+    let d = light.vector - p;
     let r2 = max(dot(d, d), 1e-12);
     *to_light = d / sqrt(r2);
-    return light.colour.xyz / r2;
+    return light.colour / r2;
 }
 
 fn in_scattered(o: Optical, p: vec3<f32>, grad: vec3<f32>, dir: vec3<f32>) -> vec3<f32> {
-    let count = u32(params.phong.z);
-    let shading = params.march.w;
-    var ambient = params.ambient.xyz;
-    if (shading >= 2.0) {
+    let count = params.light_count;
+    let shading = params.shading;
+    var ambient = params.ambient;
+    if (shading == SHADING_AO || shading == SHADING_AO_GRADIENT) {
         ambient = ambient * ao_at(ao_openness, p);
     }
     var l = vec3<f32>(0.0);
-    if (shading == 0.0) {
+    if (shading == SHADING_UNSHADED) {
         var direct = vec3<f32>(0.0);
         for (var i = 0u; i < count; i = i + 1u) {
             direct = direct + incident(i, p, &l);
         }
         return o.albedo * (ambient + direct / (4.0 * PI));
     }
-    if (shading == 2.0) {
+    if (shading == SHADING_AO) {
         return o.albedo * ambient;
     }
     let gm = length(grad);
-    let w = min(gm / params.march.z, 1.0);
+    let w = min(gm / params.normal_threshold, 1.0);
     var n = vec3<f32>(0.0);
     if (gm > 0.0) {
         n = -grad / gm;
@@ -137,7 +153,7 @@ fn in_scattered(o: Optical, p: vec3<f32>, grad: vec3<f32>, dir: vec3<f32>) -> ve
         n = -n;
     }
     let to_eye = -dir;
-    let shininess = params.phong.y;
+    let shininess = params.shininess;
     var diffuse = ambient;
     var specular = vec3<f32>(0.0);
     for (var i = 0u; i < count; i = i + 1u) {
@@ -149,47 +165,40 @@ fn in_scattered(o: Optical, p: vec3<f32>, grad: vec3<f32>, dir: vec3<f32>) -> ve
             h = normalize(hv);
         }
         let lobe = pow(max(dot(n, h), 0.0), shininess) * (shininess + 8.0) / (8.0 * PI);
-        specular = specular + e * (w * params.phong.x * lobe);
+        specular = specular + e * (w * params.specular * lobe);
     }
     return o.albedo * diffuse + specular;
 }
 
 @compute @workgroup_size(8, 8, 1)
 fn main(@builtin(global_invocation_id) id: vec3<u32>) {
-    let width = u32(params.image.z);
-    let row = id.y + u32(params.band.x);
-    if (id.x >= width || id.y >= u32(params.band.y)) {
+    let width = params.view.size.x;
+    let row = id.y + params.first_row;
+    if (id.x >= width || id.y >= params.rows) {
         return;
     }
     let out_index = id.x + width * id.y;
-    let ray = camera_ray(
-        vec2<u32>(id.x, row),
-        params.cam_position,
-        params.cam_forward.xyz,
-        params.cam_right.xyz,
-        params.cam_up.xyz,
-        params.image,
-    );
+    let ray = camera_ray(params.view, vec2<u32>(id.x, row));
     let origin = ray.origin;
     let dir = ray.dir;
-    let background = params.background.xyz;
-    let span = box_span(origin, dir, params.box_lo.xyz, params.box_hi.xyz);
+    let background = params.background;
+    let span = box_span(params.view, ray);
     if (!(span.y > span.x)) {
         out_rgba[out_index] = vec4<f32>(background, 0.0);
         out_depth[out_index] = BACKGROUND_DEPTH;
         return;
     }
-    let step = params.march.x;
-    let ert = params.march.y;
+    let step = params.step;
+    let ert = params.ert_threshold;
     // A 2D table needs the gradient to classify; shading needs it only where there is matter.
-    let table_2d = params.lut_range.z > 0.0;
-    let shaded = params.march.w == 1.0 || params.march.w == 3.0;
+    let table_2d = params.lut.gradient_max > 0.0;
+    let shaded = params.shading == SHADING_GRADIENT || params.shading == SHADING_AO_GRADIENT;
     let steps = u32(ceil((span.y - span.x) / step));
     var radiance = vec3<f32>(0.0);
     var transmittance = 1.0;
     var depth = BACKGROUND_DEPTH;
-    let index_origin = (origin - params.vol_origin.xyz) / params.vol_spacing.xyz;
-    let index_dir = dir / params.vol_spacing.xyz;
+    let index_origin = index_of(params.view, origin);
+    let index_dir = dir / params.view.spacing;
     var k = 0u;
     loop {
         if (k >= steps) {
@@ -198,7 +207,7 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
         let ta = span.x + f32(k) * step;
         let dt = min(span.y - ta, step);
         let p = origin + (ta + 0.5 * dt) * dir;
-        let cell = cell_of((p - params.vol_origin.xyz) / params.vol_spacing.xyz);
+        let cell = cell_of(index_of(params.view, p));
         if (!occupied(cell)) {
             // Resume at the first step whose midpoint lies at or beyond the cell's exit.
             let next = ceil((cell_exit(cell, index_origin, index_dir) - span.x) / step - 0.5);
@@ -215,7 +224,7 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
             grad = gradient_at(p);
         }
         var o = lookup(value, length(grad));
-        if (params.phong.w == 1.0) {
+        if (params.opacity_modulation == 1u) {
             o.sigma_t = o.sigma_t * ao_at(ao_opacity, p);
         }
         if (o.sigma_t <= 0.0 && all(o.emission == vec3<f32>(0.0))) {

@@ -1,18 +1,29 @@
 // The VAO openness of each voxel from its box statistics: mirrors src/ao/vao/estimate.rs.
-// The exact erf (estimator 2) is Abramowitz and Stegun 7.1.26 (absolute error below 1.5e-7,
-// under f32's resolution of the result); the CPU twin calls libm's erff.
+// The exact erf (ESTIMATOR_GAUSS_EXACT_ERF) is Abramowitz and Stegun 7.1.26 (absolute error
+// below 1.5e-7, under f32's resolution of the result); the CPU twin calls libm's erff.
 
 const PI: f32 = 3.14159265358979;
 const BETA_MIN: f32 = 1.0e-6;
 const BETA_MAX: f32 = 1.0e6;
 const ERF_SATURATION: f32 = 10.0;
 
+// Params.estimator (vao::Estimator::shader_code).
+const ESTIMATOR_CDF: u32 = 0u;
+const ESTIMATOR_GAUSS: u32 = 1u;
+const ESTIMATOR_GAUSS_EXACT_ERF: u32 = 2u;
+const ESTIMATOR_PENNER: u32 = 3u;
+
+// Mirrored by vao::gpu::EstimateParams.
 struct Params {
-    // voxel count, estimator (0 cdf, 1 gauss, 2 gauss with exact erf, 3 penner),
-    // write the variance (1), voxels per dispatch row
-    job: vec4<u32>,
-    // x, y: scale and offset of the map to [0, 1] that the statistics were computed under
-    map: vec4<f32>,
+    voxels: u32,
+    estimator: u32,
+    // 1: out_variance receives each voxel's variance.
+    write_variance: u32,
+    // Voxels per row of the dispatch grid.
+    voxels_per_row: u32,
+    // Scale and offset of the map to [0, 1] that the statistics were computed under.
+    scale: f32,
+    offset: f32,
 };
 
 @group(0) @binding(0) var<uniform> params: Params;
@@ -85,26 +96,27 @@ fn penner(v: f32, mean: f32, variance: f32) -> f32 {
 
 @compute @workgroup_size(64, 1, 1)
 fn main(@builtin(global_invocation_id) id: vec3<u32>) {
-    let i = id.x + id.y * params.job.w;
-    if (i >= params.job.x) {
+    let i = id.x + id.y * params.voxels_per_row;
+    if (i >= params.voxels) {
         return;
     }
-    let v = field[i] * params.map.x + params.map.y;
+    let v = field[i] * params.scale + params.offset;
     let lo = stat_min[i];
     let hi = stat_max[i];
     let mean = stat_mean[i];
     let variance = max(stat_second[i] - mean * mean, 0.0);
     var f = 0.5;
     if (hi > lo) {
-        switch params.job.y {
-            case 1u: { f = normal_cdf(v, mean, variance, false); }
-            case 2u: { f = normal_cdf(v, mean, variance, true); }
-            case 3u: { f = penner(v, mean, variance); }
+        switch params.estimator {
+            case ESTIMATOR_GAUSS: { f = normal_cdf(v, mean, variance, false); }
+            case ESTIMATOR_GAUSS_EXACT_ERF: { f = normal_cdf(v, mean, variance, true); }
+            case ESTIMATOR_PENNER: { f = penner(v, mean, variance); }
+            // ESTIMATOR_CDF
             default: { f = power_cdf(v, lo, hi, mean); }
         }
     }
     out_open[i] = clamp(f, 0.0, 1.0);
-    if (params.job.z == 1u) {
+    if (params.write_variance == 1u) {
         out_variance[i] = variance;
     }
 }

@@ -3,12 +3,28 @@
 // every w = 2R + 1 steps, van Herk/Gil-Werman extremes through the prefix and suffix buffers,
 // and the outside value beyond the ends of the line.
 
+// Params.reduce (vao::stats::Reduce::shader_code).
+const REDUCE_MEAN: u32 = 0u;
+const REDUCE_MIN: u32 = 1u;
+const REDUCE_MAX: u32 = 2u;
+
+// Mirrored by vao::gpu::PassParams.
 struct Params {
-    dims: vec4<u32>,     // nx, ny, nz, axis (0 x, 1 y, 2 z)
-    window: vec4<u32>,   // radius, reduce (0 mean, 1 min, 2 max), square the input (1), lines per dispatch row
-    // x: the value beyond the grid (mapped, and squared for the second moment);
-    // y, z: scale and offset of the map to [0, 1], applied to values read (first pass only)
-    outside: vec4<f32>,
+    // Voxels along x, y, z.
+    dims: vec3<u32>,
+    // The axis of the lines: 0 x, 1 y, 2 z.
+    axis: u32,
+    radius: u32,
+    reduce: u32,
+    // 1: the input is squared after the map (the second moment's first pass).
+    square: u32,
+    // Lines per row of the dispatch grid.
+    lines_per_row: u32,
+    // The value beyond the grid (mapped, and squared for the second moment).
+    outside: f32,
+    // Scale and offset of the map to [0, 1] applied to values read (first pass; 1 and 0 after).
+    scale: f32,
+    offset: f32,
 };
 
 @group(0) @binding(0) var<uniform> params: Params;
@@ -27,17 +43,17 @@ fn at(i: i32) -> u32 {
 
 fn input(j: i32) -> f32 {
     if (j < 0 || j >= n) {
-        return params.outside.x;
+        return params.outside;
     }
-    let v = src[at(j)] * params.outside.y + params.outside.z;
-    if (params.window.z == 1u) {
+    let v = src[at(j)] * params.scale + params.offset;
+    if (params.square == 1u) {
         return v * v;
     }
     return v;
 }
 
 fn reduce2(a: f32, b: f32) -> f32 {
-    if (params.window.y == 1u) {
+    if (params.reduce == REDUCE_MIN) {
         return min(a, b);
     }
     return max(a, b);
@@ -92,7 +108,7 @@ fn van_herk(r: i32, w: i32) {
             v = reduce2(suffix[at(lo)], prefix[at(hi)]);
         }
         if (i < r || i + r >= n) {
-            v = reduce2(v, params.outside.x);
+            v = reduce2(v, params.outside);
         }
         dst[at(i)] = v;
     }
@@ -103,8 +119,8 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
     let nx = params.dims.x;
     let ny = params.dims.y;
     let nz = params.dims.z;
-    let line = id.x + id.y * params.window.w;
-    switch params.dims.w {
+    let line = id.x + id.y * params.lines_per_row;
+    switch params.axis {
         case 0u: {
             if (line >= ny * nz) {
                 return;
@@ -130,9 +146,9 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
             n = i32(nz);
         }
     }
-    let r = i32(params.window.x);
+    let r = i32(params.radius);
     let w = 2 * r + 1;
-    if (params.window.y == 0u) {
+    if (params.reduce == REDUCE_MEAN) {
         running_mean(r, w);
     } else {
         van_herk(r, w);

@@ -15,15 +15,25 @@ fn ctx() -> Arc<GpuContext> {
     })
 }
 
+/// The kernel that samples the volume texture at given index coordinates (a test's, not in the
+/// production shaders; it includes their shaders/common.wgsl).
+const SAMPLE_KERNEL: &str = include_str!("shaders/sample_volume.wgsl");
+
+/// The kernel's `Params` uniform.
 #[repr(C)]
 #[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
 struct Params {
-    dims: [f32; 4],
-    spacing: [f32; 4],
-    count: [u32; 4],
+    dims: [u32; 3],
+    count: u32,
+    spacing: [f32; 3],
+    _pad: u32,
 }
 
-/// (value, gradient) at each index coordinate, computed by shaders/sample_volume.wgsl.
+fn sample_pipeline(ctx: &GpuContext, entry_point: &str) -> occlux::Result<wgpu::ComputePipeline> {
+    shader::compute_pipeline_from_text(ctx, "sample_volume.wgsl", SAMPLE_KERNEL, entry_point)
+}
+
+/// (value, gradient) at each index coordinate, computed by tests/shaders/sample_volume.wgsl.
 fn gpu_samples(
     ctx: &GpuContext,
     volume: &Volume,
@@ -32,12 +42,13 @@ fn gpu_samples(
 ) -> Vec<(f32, Vec3)> {
     let [nx, ny, nz] = volume.dims();
     let params = Params {
-        dims: [nx as f32, ny as f32, nz as f32, 0.0],
-        spacing: volume.spacing().extend(0.0).to_array(),
-        count: [points.len() as u32, 0, 0, 0],
+        dims: [nx as u32, ny as u32, nz as u32],
+        count: points.len() as u32,
+        spacing: volume.spacing().to_array(),
+        _pad: 0,
     };
     let coords: Vec<[f32; 4]> = points.iter().map(|p| p.extend(0.0).to_array()).collect();
-    let pipeline = shader::compute_pipeline(ctx, "sample_volume.wgsl", "main").unwrap();
+    let pipeline = sample_pipeline(ctx, "main").unwrap();
     let uniform = buffer::uniform_buffer(ctx, "params", &params).unwrap();
     let input = buffer::storage_buffer(ctx, "points", &coords).unwrap();
     let output = buffer::output_buffer::<[f32; 4]>(ctx, "results", points.len()).unwrap();
@@ -323,9 +334,9 @@ fn buffers_round_trip_and_refuse_bad_sizes() {
 fn pipelines_are_cached_and_contexts_shared() {
     let ctx = ctx();
     assert!(Arc::ptr_eq(&ctx, &shared_context().unwrap()));
-    let a = shader::compute_pipeline(&ctx, "sample_volume.wgsl", "main").unwrap();
-    let b = shader::compute_pipeline(&ctx, "sample_volume.wgsl", "main").unwrap();
+    let a = sample_pipeline(&ctx, "main").unwrap();
+    let b = sample_pipeline(&ctx, "main").unwrap();
     assert_eq!(a, b);
-    let err = shader::compute_pipeline(&ctx, "sample_volume.wgsl", "nope").unwrap_err();
+    let err = sample_pipeline(&ctx, "nope").unwrap_err();
     assert!(err.to_string().contains("nope"), "{err}");
 }

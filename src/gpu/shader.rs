@@ -1,6 +1,7 @@
 //! WGSL sources embedded at build time, `//#include "name.wgsl"` expansion, and cached compute
 //! pipelines (creating one JIT-compiles the shader, 60-800 ms on lavapipe, so each is built once
-//! per context).
+//! per context), from a shader of shaders/ or from a caller's text (a test's kernel) that
+//! includes them.
 
 use std::collections::{HashMap, HashSet};
 use std::sync::Mutex;
@@ -14,10 +15,6 @@ const SOURCES: &[(&str, &str)] = &[
     ("common.wgsl", include_str!("../../shaders/common.wgsl")),
     ("classify.wgsl", include_str!("../../shaders/classify.wgsl")),
     ("dos.wgsl", include_str!("../../shaders/dos.wgsl")),
-    (
-        "sample_volume.wgsl",
-        include_str!("../../shaders/sample_volume.wgsl"),
-    ),
     ("raycast.wgsl", include_str!("../../shaders/raycast.wgsl")),
     (
         "vao_stats.wgsl",
@@ -27,6 +24,7 @@ const SOURCES: &[(&str, &str)] = &[
         "vao_estimate.wgsl",
         include_str!("../../shaders/vao_estimate.wgsl"),
     ),
+    ("view.wgsl", include_str!("../../shaders/view.wgsl")),
 ];
 
 const INCLUDE: &str = "//#include";
@@ -36,6 +34,13 @@ const INCLUDE: &str = "//#include";
 pub fn source(name: &str) -> Result<String> {
     let mut out = String::new();
     expand(name, &raw_source, &mut HashSet::new(), &mut out)?;
+    Ok(out)
+}
+
+/// `text` (named `label` in errors) with its includes of shaders/ expanded, as [`source`].
+fn expand_text(label: &str, text: &str) -> Result<String> {
+    let mut out = String::new();
+    expand_lines(label, text, &raw_source, &mut HashSet::new(), &mut out)?;
     Ok(out)
 }
 
@@ -63,7 +68,18 @@ fn expand<'a>(
     if !included.insert(name.to_owned()) {
         return Ok(());
     }
-    for (number, line) in lookup(name)?.lines().enumerate() {
+    expand_lines(name, lookup(name)?, lookup, included, out)
+}
+
+/// Appends the lines of `text` (file `name`) to `out`, each include replaced by its expansion.
+fn expand_lines<'a>(
+    name: &str,
+    text: &str,
+    lookup: &dyn Fn(&str) -> Result<&'a str>,
+    included: &mut HashSet<String>,
+    out: &mut String,
+) -> Result<()> {
+    for (number, line) in text.lines().enumerate() {
         match line.trim().strip_prefix(INCLUDE) {
             Some(rest) => {
                 let target = parse_include(rest).ok_or_else(|| {
@@ -93,9 +109,18 @@ fn parse_include(rest: &str) -> Option<&str> {
         .filter(|name| !name.is_empty())
 }
 
+/// What a cached pipeline was compiled from.
+#[derive(Debug, Clone, PartialEq, Eq, Hash)]
+enum Shader {
+    /// A shader of shaders/, by name.
+    File(String),
+    /// A caller's text, whole (two texts under one label must not share a pipeline).
+    Text(String),
+}
+
 /// Compute pipelines of one context, keyed by (shader, entry point).
 #[derive(Debug, Default)]
-pub(super) struct PipelineCache(Mutex<HashMap<(String, String), wgpu::ComputePipeline>>);
+pub(super) struct PipelineCache(Mutex<HashMap<(Shader, String), wgpu::ComputePipeline>>);
 
 /// The compute pipeline for `entry_point` of shader `name`, built on first use with the bind
 /// group layouts that wgpu derives from the shader (`layout: None`), then cached in `ctx`.
@@ -105,31 +130,67 @@ pub fn compute_pipeline(
     name: &str,
     entry_point: &str,
 ) -> Result<wgpu::ComputePipeline> {
-    let key = (name.to_owned(), entry_point.to_owned());
+    cached_pipeline(
+        ctx,
+        Shader::File(name.to_owned()),
+        name,
+        entry_point,
+        || source(name),
+    )
+}
+
+/// As [`compute_pipeline`] for a shader that is not in shaders/ (a test's kernel): `text`,
+/// whose `//#include` lines name shaders of shaders/; `label` names it in errors.
+pub fn compute_pipeline_from_text(
+    ctx: &GpuContext,
+    label: &str,
+    text: &str,
+    entry_point: &str,
+) -> Result<wgpu::ComputePipeline> {
+    cached_pipeline(
+        ctx,
+        Shader::Text(text.to_owned()),
+        label,
+        entry_point,
+        || expand_text(label, text),
+    )
+}
+
+/// The pipeline cached under `shader`, else built from the text that `expanded` gives (named
+/// `label` in errors) and cached.
+fn cached_pipeline(
+    ctx: &GpuContext,
+    shader: Shader,
+    label: &str,
+    entry_point: &str,
+    expanded: impl FnOnce() -> Result<String>,
+) -> Result<wgpu::ComputePipeline> {
+    let key = (shader, entry_point.to_owned());
     if let Some(pipeline) = lock(&ctx.pipelines)?.get(&key) {
         return Ok(pipeline.clone());
     }
     // Built outside the lock: compiling is slow and other pipelines need not wait for it.
-    let pipeline = build_pipeline(ctx, name, entry_point)?;
+    let pipeline = build_pipeline(ctx, label, expanded()?, entry_point)?;
     lock(&ctx.pipelines)?.insert(key, pipeline.clone());
     Ok(pipeline)
 }
 
 fn lock(
     cache: &PipelineCache,
-) -> Result<std::sync::MutexGuard<'_, HashMap<(String, String), wgpu::ComputePipeline>>> {
+) -> Result<std::sync::MutexGuard<'_, HashMap<(Shader, String), wgpu::ComputePipeline>>> {
     cache
         .0
         .lock()
         .map_err(|_| Error::Gpu("pipeline cache poisoned by an earlier panic".into()))
 }
 
+/// Compiles `text` (expanded) and builds the pipeline of its `entry_point`.
 fn build_pipeline(
     ctx: &GpuContext,
     name: &str,
+    text: String,
     entry_point: &str,
 ) -> Result<wgpu::ComputePipeline> {
-    let text = source(name)?;
     ctx.checked(&format!("shader {name}, entry point {entry_point}"), || {
         let module = ctx
             .device
@@ -203,14 +264,32 @@ mod tests {
 
     #[test]
     fn includes_expand_once_in_place() {
-        let text = source("sample_volume.wgsl").unwrap();
+        let text = source("raycast.wgsl").unwrap();
         assert!(
             !text.lines().any(|l| l.trim().starts_with(INCLUDE)),
             "{text}"
         );
         assert_eq!(text.matches("fn sample_volume(").count(), 1);
+        assert_eq!(text.matches("struct View {").count(), 1);
         // The include stands where its directive stood: before the kernel that uses it.
         assert!(text.find("fn sample_volume(").unwrap() < text.find("fn main(").unwrap());
+    }
+
+    #[test]
+    fn a_callers_text_includes_the_shaders() {
+        let text =
+            "// kernel\n//#include \"common.wgsl\"\n//#include \"common.wgsl\"\nfn main() {}\n";
+        let expanded = expand_text("kernel.wgsl", text).unwrap();
+        assert!(expanded.starts_with("// kernel\n"), "{expanded}");
+        assert_eq!(expanded.matches("fn sample_volume(").count(), 1);
+        assert!(expanded.ends_with("fn main() {}\n"), "{expanded}");
+        let err = expand_text("kernel.wgsl", "//#include \"nope.wgsl\"")
+            .unwrap_err()
+            .to_string();
+        assert!(
+            err.contains("kernel.wgsl:1") && err.contains("nope.wgsl"),
+            "{err}"
+        );
     }
 
     #[test]

@@ -10,27 +10,40 @@ use crate::gpu::{buffer, shader, GpuContext};
 use crate::progress::Progress;
 use crate::volume::Volume;
 use bytemuck::{Pod, Zeroable};
-use glam::{UVec4, Vec4};
+use glam::UVec3;
 
 const STATS_SHADER: &str = "vao_stats.wgsl";
 const ESTIMATE_SHADER: &str = "vao_estimate.wgsl";
 const WORKGROUP: u32 = 64;
 
-/// vao_stats.wgsl's `Params`.
+/// vao_stats.wgsl's `Params`, field for field (see the shader for each field).
 #[repr(C)]
 #[derive(Clone, Copy, Pod, Zeroable)]
 struct PassParams {
-    dims: UVec4,
-    window: UVec4,
-    outside: Vec4,
+    dims: UVec3,
+    axis: u32,
+    radius: u32,
+    /// `Reduce::shader_code`.
+    reduce: u32,
+    square: u32,
+    lines_per_row: u32,
+    outside: f32,
+    scale: f32,
+    offset: f32,
+    _pad: u32,
 }
 
-/// vao_estimate.wgsl's `Params`.
+/// vao_estimate.wgsl's `Params`, field for field (see the shader for each field).
 #[repr(C)]
 #[derive(Clone, Copy, Pod, Zeroable)]
 struct EstimateParams {
-    job: UVec4,
-    map: Vec4,
+    voxels: u32,
+    /// `Estimator::shader_code`.
+    estimator: u32,
+    write_variance: u32,
+    voxels_per_row: u32,
+    scale: f32,
+    offset: f32,
 }
 
 /// The statistics resident on the GPU, in the order of [`QUANTITIES`].
@@ -78,20 +91,23 @@ fn compute_stats(
                 return Err(Error::Cancelled);
             }
             let (workgroups, per_row) = grid(ctx, lines[axis])?;
+            // Only the first pass reads the field; later ones read mapped statistics.
+            let (scale, offset) = if axis == 0 {
+                (map.scale, map.offset)
+            } else {
+                (1.0, 0.0)
+            };
             let params = PassParams {
-                dims: UVec4::new(nx as u32, ny as u32, nz as u32, axis as u32),
-                window: UVec4::new(
-                    radius,
-                    reduce.shader_code(),
-                    u32::from(squared && axis == 0),
-                    per_row,
-                ),
-                // Only the first pass reads the field; later ones read mapped statistics.
-                outside: if axis == 0 {
-                    Vec4::new(outside, map.scale, map.offset, 0.0)
-                } else {
-                    Vec4::new(outside, 1.0, 0.0, 0.0)
-                },
+                dims: UVec3::new(nx as u32, ny as u32, nz as u32),
+                axis: axis as u32,
+                radius,
+                reduce: reduce.shader_code(),
+                square: u32::from(squared && axis == 0),
+                lines_per_row: per_row,
+                outside,
+                scale,
+                offset,
+                _pad: 0,
             };
             let uniform = buffer::uniform_buffer(ctx, "vao pass params", &params)?;
             let bind = shader::bind_group(
@@ -166,8 +182,12 @@ pub fn ao_volume(
         ctx,
         "vao estimate params",
         &EstimateParams {
-            job: UVec4::new(len as u32, code, u32::from(params.variance), per_row),
-            map: Vec4::new(map.scale, map.offset, 0.0, 0.0),
+            voxels: len as u32,
+            estimator: code,
+            write_variance: u32::from(params.variance),
+            voxels_per_row: per_row,
+            scale: map.scale,
+            offset: map.offset,
         },
     )?;
     let [q_min, q_max, q_mean, q_second] = &stats.quantities[..] else {
@@ -198,4 +218,66 @@ pub fn ao_volume(
             None
         },
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::ao::vao::{stats::Reduce, Estimator};
+    use crate::gpu::layout::{assert_mirrors, u32_constant};
+
+    #[test]
+    fn uniforms_match_the_shaders() {
+        assert_mirrors!(
+            PassParams,
+            STATS_SHADER,
+            "Params",
+            [
+                dims,
+                axis,
+                radius,
+                reduce,
+                square,
+                lines_per_row,
+                outside,
+                scale,
+                offset
+            ]
+        );
+        assert_mirrors!(
+            EstimateParams,
+            ESTIMATE_SHADER,
+            "Params",
+            [
+                voxels,
+                estimator,
+                write_variance,
+                voxels_per_row,
+                scale,
+                offset
+            ]
+        );
+    }
+
+    #[test]
+    fn codes_match_the_shaders() {
+        for (name, reduce) in [
+            ("REDUCE_MEAN", Reduce::Mean),
+            ("REDUCE_MIN", Reduce::Min),
+            ("REDUCE_MAX", Reduce::Max),
+        ] {
+            assert_eq!(u32_constant(STATS_SHADER, name), reduce.shader_code());
+        }
+        for (name, estimator) in [
+            ("ESTIMATOR_CDF", Estimator::Cdf),
+            ("ESTIMATOR_GAUSS", Estimator::Gauss),
+            ("ESTIMATOR_GAUSS_EXACT_ERF", Estimator::GaussExactErf),
+            ("ESTIMATOR_PENNER", Estimator::Penner),
+        ] {
+            assert_eq!(
+                Some(u32_constant(ESTIMATE_SHADER, name)),
+                estimator.shader_code()
+            );
+        }
+    }
 }

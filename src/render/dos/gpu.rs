@@ -8,12 +8,14 @@
 
 use super::{finish, DosInput, DosSetup, Formulation, MAX_CLIP_PLANES};
 use crate::error::{Error, Result};
+use crate::gpu::lut_shape::LutShapeUniform;
+use crate::gpu::view::ViewUniform;
 use crate::gpu::{buffer, shader, GpuContext};
 use crate::progress::Progress;
-use crate::render::raycast::gpu::{lut_uniform, GpuVolume, ViewUniform};
+use crate::render::raycast::gpu::GpuVolume;
 use crate::render::{RenderImage, BACKGROUND_DEPTH};
 use bytemuck::{Pod, Zeroable};
-use glam::Vec4;
+use glam::{Vec2, Vec3};
 use wgpu::util::DeviceExt;
 
 const SHADER: &str = "dos.wgsl";
@@ -21,18 +23,43 @@ const WORKGROUP: u32 = 8;
 /// Slabs per submission: bounds the bind groups alive at once and keeps cancellation prompt.
 const SLABS_PER_SUBMIT: u32 = 32;
 
-/// The shader's `Params` uniform, field for field.
+/// The shader's `Params` uniform, field for field (see shaders/dos.wgsl for each field).
 #[repr(C)]
 #[derive(Clone, Copy, Pod, Zeroable)]
 struct Params {
     view: ViewUniform,
-    lut_range: Vec4,
-    lut_size: Vec4,
-    ambient: Vec4,
-    slabs: Vec4,
-    march: Vec4,
-    clip_point: [Vec4; MAX_CLIP_PLANES],
-    clip_normal: [Vec4; MAX_CLIP_PLANES],
+    lut: LutShapeUniform,
+    ambient: Vec3,
+    slice_distance: f32,
+    first_depth: f32,
+    sample_count: u32,
+    clip_count: u32,
+    lock_step_rays: u32,
+    planes: u32,
+    self_occlusion: u32,
+    _pad: [u32; 2],
+    clip_planes: [GpuClipPlane; MAX_CLIP_PLANES],
+}
+
+/// The shader's `ClipPlane`.
+#[repr(C)]
+#[derive(Clone, Copy, Pod, Zeroable)]
+struct GpuClipPlane {
+    point: Vec3,
+    _pad0: u32,
+    normal: Vec3,
+    _pad1: u32,
+}
+
+/// The shader's `ConeSample`, an element of the `samples` storage array.
+#[repr(C)]
+#[derive(Clone, Copy, Pod, Zeroable)]
+struct ConeSample {
+    /// On the unit disc.
+    offset: Vec2,
+    /// The occlusion buffer's plane (the sample's ring).
+    plane: u32,
+    _pad: u32,
 }
 
 /// The shader's `Slab` uniform (padded to 16 bytes).
@@ -41,7 +68,7 @@ struct Params {
 struct Slab {
     index: u32,
     radius_px: f32,
-    pad: [u32; 2],
+    _pad: [u32; 2],
 }
 
 /// Uploads the inputs and renders.
@@ -63,11 +90,15 @@ pub fn render_uploaded(
     let pixels = cam.width as usize * cam.height as usize;
     let pipeline = shader::compute_pipeline(ctx, SHADER, "main")?;
     let texture = uploaded.texture();
-    let samples: Vec<Vec4> = setup
+    let samples: Vec<ConeSample> = setup
         .offsets
         .iter()
         .zip(&setup.sample_ring)
-        .map(|(q, ring)| Vec4::new(q.x, q.y, *ring as f32, 0.0))
+        .map(|(&offset, &plane)| ConeSample {
+            offset,
+            plane,
+            _pad: 0,
+        })
         .collect();
     let samples = buffer::storage_buffer(ctx, "cone samples", &samples)?;
     let ring_lengths = buffer::storage_buffer(ctx, "ring lengths", &setup.ring_lengths)?;
@@ -88,7 +119,7 @@ pub fn render_uploaded(
         let values = Slab {
             index: k,
             radius_px: setup.base_radius_px(cam, k),
-            pad: [0; 2],
+            _pad: [0; 2],
         };
         let at = k as usize * stride;
         slab_bytes[at..at + std::mem::size_of::<Slab>()]
@@ -163,31 +194,58 @@ pub fn render_uploaded(
 }
 
 fn params(input: &DosInput, setup: &DosSetup) -> Params {
-    let [lut_range, lut_size] = lut_uniform(input.lut);
-    let mut clip_point = [Vec4::ZERO; MAX_CLIP_PLANES];
-    let mut clip_normal = [Vec4::ZERO; MAX_CLIP_PLANES];
-    for (i, plane) in input.params.clip_planes.iter().enumerate() {
-        clip_point[i] = plane.point.extend(0.0);
-        clip_normal[i] = plane.normal.extend(0.0);
+    let mut clip_planes = [GpuClipPlane::zeroed(); MAX_CLIP_PLANES];
+    for (gpu, plane) in clip_planes.iter_mut().zip(&input.params.clip_planes) {
+        gpu.point = plane.point;
+        gpu.normal = plane.normal;
     }
     Params {
         view: ViewUniform::new(input.camera, input.volume),
-        lut_range,
-        lut_size,
-        ambient: setup.ambient.extend(0.0),
-        slabs: Vec4::new(
-            setup.slice_distance,
-            setup.first_depth,
-            setup.offsets.len() as f32,
-            input.params.clip_planes.len() as f32,
-        ),
-        march: Vec4::new(
-            f32::from(u8::from(input.params.formulation == Formulation::Rays)),
-            setup.planes() as f32,
-            f32::from(u8::from(input.params.self_occlusion)),
-            0.0,
-        ),
-        clip_point,
-        clip_normal,
+        lut: LutShapeUniform::new(input.lut),
+        ambient: setup.ambient,
+        slice_distance: setup.slice_distance,
+        first_depth: setup.first_depth,
+        sample_count: setup.offsets.len() as u32,
+        clip_count: input.params.clip_planes.len() as u32,
+        lock_step_rays: u32::from(input.params.formulation == Formulation::Rays),
+        planes: setup.planes() as u32,
+        self_occlusion: u32::from(input.params.self_occlusion),
+        _pad: [0; 2],
+        clip_planes,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::gpu::layout::{assert_mirrors, u32_constant};
+
+    #[test]
+    fn uniforms_and_samples_match_the_shader() {
+        assert_mirrors!(
+            Params,
+            SHADER,
+            "Params",
+            [
+                view,
+                lut,
+                ambient,
+                slice_distance,
+                first_depth,
+                sample_count,
+                clip_count,
+                lock_step_rays,
+                planes,
+                self_occlusion,
+                clip_planes
+            ]
+        );
+        assert_mirrors!(GpuClipPlane, SHADER, "ClipPlane", [point, normal]);
+        assert_mirrors!(ConeSample, SHADER, "ConeSample", [offset, plane]);
+        assert_mirrors!(Slab, SHADER, "Slab", [index, radius_px]);
+        assert_eq!(
+            u32_constant(SHADER, "MAX_CLIP_PLANES") as usize,
+            MAX_CLIP_PLANES
+        );
     }
 }

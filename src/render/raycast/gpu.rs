@@ -2,9 +2,10 @@
 //! bands of rows so that each band's output fits one storage binding and progress is reported.
 
 use super::{RaycastInput, RaycastSetup, Shading};
-use crate::camera::Camera;
 use crate::classify::Lut;
 use crate::error::Result;
+use crate::gpu::lut_shape::LutShapeUniform;
+use crate::gpu::view::ViewUniform;
 use crate::gpu::{buffer, shader, GpuContext, VolumeTexture};
 use crate::lights::{Light, MAX_LIGHTS};
 use crate::progress::Progress;
@@ -12,84 +13,56 @@ use crate::render::occupancy::{Occupancy, CELL};
 use crate::render::RenderImage;
 use crate::volume::Volume;
 use bytemuck::{Pod, Zeroable};
-use glam::{Vec3, Vec4};
+use glam::{UVec3, Vec3};
 
 const SHADER: &str = "raycast.wgsl";
 const WORKGROUP: u32 = 8;
 /// Bands per image at least, so that long renders report progress.
 const MIN_BANDS: u32 = 8;
 
+/// `Params::shading`: the shader's SHADING_* constants.
+const SHADING_UNSHADED: u32 = 0;
+const SHADING_GRADIENT: u32 = 1;
+const SHADING_AO: u32 = 2;
+/// AO for the ambient light, gradient shading for the others.
+const SHADING_AO_GRADIENT: u32 = 3;
+
+/// `GpuLight::kind`: the shader's LIGHT_* constants.
+const LIGHT_DIRECTIONAL: u32 = 1;
+const LIGHT_POINT: u32 = 2;
+
 /// One light as the shader's `Light` struct.
 #[repr(C)]
 #[derive(Clone, Copy, Pod, Zeroable)]
 struct GpuLight {
-    kind: Vec4,
-    vector: Vec4,
-    colour: Vec4,
+    /// Directional: unit direction towards the light; point: position.
+    vector: Vec3,
+    kind: u32,
+    /// Irradiance (directional) or intensity (point).
+    colour: Vec3,
+    _pad: u32,
 }
 
-/// The camera and the volume's placement, as the first fields of the kernels' `Params`
-/// uniforms (shaders/raycast.wgsl, shaders/dos.wgsl).
-#[repr(C)]
-#[derive(Clone, Copy, Pod, Zeroable)]
-pub(crate) struct ViewUniform {
-    cam_position: Vec4,
-    cam_forward: Vec4,
-    cam_right: Vec4,
-    cam_up: Vec4,
-    image: Vec4,
-    box_lo: Vec4,
-    box_hi: Vec4,
-    vol_origin: Vec4,
-    vol_spacing: Vec4,
-    vol_dims: Vec4,
-}
-
-impl ViewUniform {
-    pub(crate) fn new(cam: &Camera, volume: &Volume) -> Self {
-        let (hx, hy) = cam.half_extent();
-        let (lo, hi) = volume.bounds();
-        let [nx, ny, nz] = volume.dims();
-        Self {
-            cam_position: cam
-                .position
-                .extend(if cam.is_perspective() { 1.0 } else { 0.0 }),
-            cam_forward: cam.forward.extend(0.0),
-            cam_right: cam.right.extend(0.0),
-            cam_up: cam.up.extend(0.0),
-            image: Vec4::new(hx, hy, cam.width as f32, cam.height as f32),
-            box_lo: lo.extend(0.0),
-            box_hi: hi.extend(0.0),
-            vol_origin: volume.origin().extend(0.0),
-            vol_spacing: volume.spacing().extend(0.0),
-            vol_dims: Vec3::new(nx as f32, ny as f32, nz as f32).extend(0.0),
-        }
-    }
-}
-
-/// The table's `lut_range` and `lut_size` fields (shaders/classify.wgsl's `lut_lookup`).
-pub(crate) fn lut_uniform(lut: &Lut) -> [Vec4; 2] {
-    let [vmin, vmax] = lut.value_range();
-    let [nv, ng] = lut.size();
-    [
-        Vec4::new(vmin, vmax, lut.gradient_max().unwrap_or(0.0), 0.0),
-        Vec4::new(nv as f32, ng as f32, 0.0, 0.0),
-    ]
-}
-
-/// The shader's `Params` uniform, field for field.
+/// The shader's `Params` uniform, field for field (see shaders/raycast.wgsl for each field).
 #[repr(C)]
 #[derive(Clone, Copy, Pod, Zeroable)]
 struct Params {
     view: ViewUniform,
-    ambient: Vec4,
-    background: Vec4,
-    lut_range: Vec4,
-    lut_size: Vec4,
-    march: Vec4,
-    phong: Vec4,
-    band: Vec4,
-    cells: Vec4,
+    lut: LutShapeUniform,
+    ambient: Vec3,
+    step: f32,
+    background: Vec3,
+    ert_threshold: f32,
+    normal_threshold: f32,
+    shading: u32,
+    specular: f32,
+    shininess: f32,
+    light_count: u32,
+    opacity_modulation: u32,
+    first_row: u32,
+    rows: u32,
+    cells: UVec3,
+    cell_voxels: u32,
     lights: [GpuLight; MAX_LIGHTS],
 }
 
@@ -177,7 +150,8 @@ pub fn render_uploaded(
     let mut row0 = 0;
     while row0 < height {
         let rows = band_rows.min(height - row0);
-        params.band = Vec4::new(row0 as f32, rows as f32, 0.0, 0.0);
+        params.first_row = row0;
+        params.rows = rows;
         let pixels = (width * rows) as usize;
         let uniform = buffer::uniform_buffer(ctx, "raycast params", &params)?;
         let rgba = buffer::output_buffer::<[f32; 4]>(ctx, "raycast rgba", pixels)?;
@@ -213,13 +187,13 @@ pub fn render_uploaded(
 }
 
 fn params(input: &RaycastInput, setup: &RaycastSetup, cells: [usize; 3]) -> Params {
-    let [lut_range, lut_size] = lut_uniform(input.lut);
-    // The shader's shading codes: 0 unshaded, 1 gradient, 2 AO, 3 AO with gradient direct.
     let (shading, specular, shininess) = match input.params.shading {
-        Shading::Unshaded => (0.0, 0.0, 1.0),
-        Shading::Gradient(g) => (1.0, g.specular, g.shininess),
-        Shading::AmbientOcclusion { direct: None } => (2.0, 0.0, 1.0),
-        Shading::AmbientOcclusion { direct: Some(g) } => (3.0, g.specular, g.shininess),
+        Shading::Unshaded => (SHADING_UNSHADED, 0.0, 1.0),
+        Shading::Gradient(g) => (SHADING_GRADIENT, g.specular, g.shininess),
+        Shading::AmbientOcclusion { direct: None } => (SHADING_AO, 0.0, 1.0),
+        Shading::AmbientOcclusion { direct: Some(g) } => {
+            (SHADING_AO_GRADIENT, g.specular, g.shininess)
+        }
     };
     let modulated = input.ao.is_some_and(|ao| ao.opacity.is_some());
     let mut lights = [GpuLight::zeroed(); MAX_LIGHTS];
@@ -230,44 +204,87 @@ fn params(input: &RaycastInput, setup: &RaycastSetup, cells: [usize; 3]) -> Para
             Light::Directional {
                 to_light,
                 irradiance,
-            } => (1.0, to_light, irradiance),
+            } => (LIGHT_DIRECTIONAL, to_light, irradiance),
             Light::Point {
                 position,
                 intensity,
-            } => (2.0, position, intensity),
+            } => (LIGHT_POINT, position, intensity),
         };
         lights[count] = GpuLight {
-            kind: Vec4::new(kind, 0.0, 0.0, 0.0),
-            vector: vector.extend(0.0),
-            colour: colour.extend(0.0),
+            vector,
+            kind,
+            colour,
+            _pad: 0,
         };
         count += 1;
     }
     Params {
         view: ViewUniform::new(input.camera, input.volume),
-        ambient: input.lighting.ambient().extend(0.0),
-        background: input.lighting.background.extend(0.0),
-        lut_range,
-        lut_size,
-        march: Vec4::new(
-            setup.step,
-            input.params.ert_threshold,
-            setup.normal_threshold,
-            shading,
-        ),
-        phong: Vec4::new(
-            specular,
-            shininess,
-            count as f32,
-            f32::from(u8::from(modulated)),
-        ),
-        band: Vec4::ZERO,
-        cells: Vec4::new(
-            cells[0] as f32,
-            cells[1] as f32,
-            cells[2] as f32,
-            CELL as f32,
-        ),
+        lut: LutShapeUniform::new(input.lut),
+        ambient: input.lighting.ambient(),
+        step: setup.step,
+        background: input.lighting.background,
+        ert_threshold: input.params.ert_threshold,
+        normal_threshold: setup.normal_threshold,
+        shading,
+        specular,
+        shininess,
+        light_count: count as u32,
+        opacity_modulation: u32::from(modulated),
+        first_row: 0,
+        rows: 0,
+        cells: UVec3::new(cells[0] as u32, cells[1] as u32, cells[2] as u32),
+        cell_voxels: CELL as u32,
         lights,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::gpu::layout::{assert_mirrors, u32_constant};
+
+    #[test]
+    fn uniforms_match_the_shader() {
+        assert_mirrors!(
+            Params,
+            SHADER,
+            "Params",
+            [
+                view,
+                lut,
+                ambient,
+                step,
+                background,
+                ert_threshold,
+                normal_threshold,
+                shading,
+                specular,
+                shininess,
+                light_count,
+                opacity_modulation,
+                first_row,
+                rows,
+                cells,
+                cell_voxels,
+                lights
+            ]
+        );
+        assert_mirrors!(GpuLight, SHADER, "Light", [vector, kind, colour]);
+        assert_eq!(u32_constant(SHADER, "MAX_LIGHTS") as usize, MAX_LIGHTS);
+    }
+
+    #[test]
+    fn codes_match_the_shader() {
+        for (name, code) in [
+            ("SHADING_UNSHADED", SHADING_UNSHADED),
+            ("SHADING_GRADIENT", SHADING_GRADIENT),
+            ("SHADING_AO", SHADING_AO),
+            ("SHADING_AO_GRADIENT", SHADING_AO_GRADIENT),
+            ("LIGHT_DIRECTIONAL", LIGHT_DIRECTIONAL),
+            ("LIGHT_POINT", LIGHT_POINT),
+        ] {
+            assert_eq!(u32_constant(SHADER, name), code, "{name}");
+        }
     }
 }

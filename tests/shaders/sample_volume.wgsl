@@ -1,12 +1,15 @@
-// Test kernel for the volume texture: value and gradient at a list of index coordinates, to be
-// compared with Volume::sample_index and Volume::gradient on the CPU.
+// Test kernel for the volume texture (tests/gpu_volume.rs): value and gradient at a list of
+// index coordinates, to be compared with Volume::sample_index and Volume::gradient on the CPU.
 
 //#include "common.wgsl"
 
 struct Params {
-    dims: vec4<f32>,     // xyz: voxels per axis
-    spacing: vec4<f32>,  // xyz: world units per voxel
-    count: vec4<u32>,    // x: number of points
+    // Voxels per axis.
+    dims: vec3<u32>,
+    // Points to sample.
+    count: u32,
+    // World units per voxel.
+    spacing: vec3<f32>,
 };
 
 @group(0) @binding(0) var<uniform> params: Params;
@@ -19,11 +22,12 @@ struct Params {
 @compute @workgroup_size(64)
 fn main(@builtin(global_invocation_id) id: vec3<u32>) {
     let i = id.x;
-    if (i >= params.count.x) {
+    if (i >= params.count) {
         return;
     }
     let c = points[i].xyz;
-    let value = sample_volume(volume, volume_sampler, c, params.dims.xyz);
-    let gradient = volume_gradient(volume, volume_sampler, c, params.dims.xyz, params.spacing.xyz);
+    let dims = vec3<f32>(params.dims);
+    let value = sample_volume(volume, volume_sampler, c, dims);
+    let gradient = volume_gradient(volume, volume_sampler, c, dims, params.spacing);
     results[i] = vec4<f32>(gradient, value);
 }
