@@ -25,10 +25,15 @@ REPO = HERE.parent
 SOURCES = (
     "__init__.py",
     "properties.py",
-    "operators.py",
     "nodes.py",
     "panel.py",
     "scenes.py",
+    "operators/__init__.py",
+    "operators/jobs.py",
+    "operators/volume.py",
+    "operators/dos.py",
+    "operators/check.py",
+    "operators/composite.py",
 )
 
 
@@ -70,6 +75,7 @@ def main() -> None:
         stage = Path(tmp) / "occlux"
         (stage / "wheels").mkdir(parents=True)
         for name in SOURCES:
+            (stage / name).parent.mkdir(parents=True, exist_ok=True)
             shutil.copy(HERE / name, stage / name)
         shutil.copy(wheel, stage / "wheels" / wheel.name)
         manifest = (HERE / "blender_manifest.toml").read_text()

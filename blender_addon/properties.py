@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import bpy
+import occlux
 from bpy.props import (
     EnumProperty,
     FloatProperty,
@@ -12,16 +13,53 @@ from bpy.props import (
     StringProperty,
 )
 
-from . import nodes
+from . import nodes, scenes
 
-PRESETS = ("ct-bone", "ct-soft-tissue", "mri", "simulation", "boundary-2d")
-AO_METHODS = (
-    ("cdf", "CDF", "The CDF reconstruction t^beta from the local minimum, maximum and mean"),
-    ("gauss", "Gauss", "The normal CDF of the local mean and variance (Winitzki's erf)"),
-    ("gauss-exact", "Gauss (exact erf)", "The normal CDF with the exact erf"),
-    ("penner", "Penner", "Penner and Mitchell's Chebyshev bound: the baseline, too dark"),
-    ("exact", "Exact", "Count the voxels in every ball: slow, CPU only, the reference"),
-)
+# Limits, defaults and choices that the core's method registry (`occlux.methods()`) knows come
+# from it, read when the add-on is registered: the extension installs its `occlux` wheel before
+# Blender imports this module.
+DOS = {p["key"]: p for p in scenes.method("dos")["params"]}
+AO = {p["key"]: p for p in scenes.method("ao")["params"]}
+PRESETS = tuple(occlux.PRESETS)
+# Labels for the registry's choice names; the rest are capitalised.
+LABELS = {"cdf": "CDF", "gauss-exact": "Gauss (exact erf)"}
+
+
+def _items(param: dict) -> list[tuple[str, str, str]]:
+    """Enum items for a registry parameter of type "choice": its options and their docs."""
+    return [
+        (o["name"], LABELS.get(o["name"], o["name"].capitalize()), o["doc"])
+        for o in param["options"]
+    ]
+
+
+def _limits(param: dict, precision: int | None = None) -> dict:
+    """`min` and `max` of a registry parameter's range. Blender's properties have closed bounds
+    only: an open bound (exclusive) becomes the closest value inside it that the panel shows at
+    `precision` decimals (e.g. [0, 90) with precision 1 gives max = 89.9)."""
+    limits = {}
+    bounds = param["range"]
+    step = 10.0 ** -(precision or 0) if param["type"] == "float" else 1
+    cast = float if param["type"] == "float" else int
+    if bounds["min"] is not None:
+        low = bounds["min"] if bounds["min_inclusive"] else bounds["min"] + step
+        limits["min"] = cast(low)
+    if bounds["max"] is not None:
+        high = bounds["max"] if bounds["max_inclusive"] else bounds["max"] - step
+        limits["max"] = cast(high)
+    return limits
+
+
+def _range_text(param: dict) -> str:
+    """The registry's range as the description says it, e.g. "in [0, 90)"."""
+    bounds = param["range"]
+    low = "[" if bounds["min_inclusive"] else "("
+    high = "]" if bounds["max_inclusive"] else ")"
+    lo = "-inf" if bounds["min"] is None else f"{bounds['min']:g}"
+    hi = "inf" if bounds["max"] is None else f"{bounds['max']:g}"
+    return f"in {low}{lo}, {hi}{high}"
+
+
 RAW_TYPES = ("uint8", "int8", "uint16", "int16", "uint32", "int32", "float32", "float64")
 
 
@@ -101,16 +139,16 @@ class OccluxSettings(bpy.types.PropertyGroup):
     )
     ao_method: EnumProperty(
         name="AO method",
-        description="How the occluded fraction of each voxel's tangent sphere is estimated",
-        items=AO_METHODS,
-        default="cdf",
+        description=AO["ao_method"]["doc"],
+        items=_items(AO["ao_method"]),
+        default=AO["ao_method"]["default"],
     )
     ao_radius: IntProperty(
         name="AO radius",
-        description="Radius of the tangent sphere, in voxels",
-        min=1,
-        soft_max=64,
-        default=10,
+        description=f"{AO['ao_radius']['doc']}, {_range_text(AO['ao_radius'])}",
+        **_limits(AO["ao_radius"]),
+        soft_max=min(64, AO["ao_radius"]["range"]["max"] or 64),
+        default=AO["ao_radius"]["default"],
     )
     ao_shading: EnumProperty(
         name="AO shading",
@@ -132,35 +170,31 @@ class OccluxSettings(bpy.types.PropertyGroup):
     )
     dos_theta_deg: FloatProperty(
         name="Cone angle",
-        description="Half-angle of the cone of ambient light around the view direction, "
-        "degrees in [0, 90)",
-        min=0.0,
-        max=89.9,
-        default=50.0,
+        description=f"{DOS['theta_deg']['doc']}, {_range_text(DOS['theta_deg'])}",
+        **_limits(DOS["theta_deg"], precision=1),  # [0, 90): max 89.9
+        precision=1,
+        default=DOS["theta_deg"]["default"],
     )
     dos_grid: IntProperty(
         name="Cone samples",
-        description="n x n samples on the cone's base",
-        min=1,
-        max=32,
-        default=5,
+        description=f"{DOS['grid']['doc']}, {_range_text(DOS['grid'])}",
+        **_limits(DOS["grid"]),
+        default=DOS["grid"]["default"],
     )
+    # Optional in the core (absent: the smallest voxel spacing) with an open lower bound 0:
+    # here 0 stands for absent and only positive values reach the scene.
     dos_slice_distance: FloatProperty(
         name="Slice distance",
-        description="Distance between view-aligned slices in scene units (0: the smallest "
-        "voxel spacing)",
+        description=f"{DOS['slice_distance']['doc']} (0 here: absent)",
         min=0.0,
         default=0.0,
         precision=4,
     )
     dos_distance: EnumProperty(
         name="Cone distance",
-        description="Path length through the occluding slice",
-        items=[
-            ("exact", "Exact", "sqrt(d^2 + r^2) to each sample on the cone's base"),
-            ("approximate", "Approximate", "The slice distance d"),
-        ],
-        default="exact",
+        description=DOS["distance"]["doc"],
+        items=_items(DOS["distance"]),
+        default=DOS["distance"]["default"],
     )
     last_exr: StringProperty(
         name="Occlux EXR",

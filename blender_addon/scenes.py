@@ -1,22 +1,96 @@
-"""The Blender scene as an Occlux scene file (TOML): the volume settings, the active camera and
-the lights. Read on the main thread; the text is what the jobs hand to the core and to the
+"""The Blender scene as an Occlux scene: the volume settings, the active camera and the lights
+as the scene file's tree (plain Python data: `volume`, `classification`, `camera`, `lights`,
+`background`, `render`), which `occlux.Scene.from_dict` validates as it validates a file. Read on
+the main thread; the jobs hand the tree (or the scene built from it) to the core and to the
 Cycles harness (occlux.cycles), which map it back onto Blender the same way."""
 
 from __future__ import annotations
 
-import json
 import math
-from collections.abc import Sequence
+from collections.abc import Iterable
+from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import bpy
+import occlux
+
+# The add-on maps the world to an ambient light and sun lamps to directional lights; these are
+# the kinds of the registry's `lights` it can give a method.
+WORLD, SUN = "ambient", "directional"
+
+# A camera for scenes whose camera is unused (`occlux.ao_volume` reads only the volume and the
+# classification); the scene file requires one.
+UNUSED_CAMERA = {"position": [0.0, -4.0, 0.0]}
 
 
-def _list(values: Sequence[float]) -> str:
-    return json.dumps([round(float(v), 9) for v in values])
+def _floats(values: Iterable[float]) -> list[float]:
+    return [float(v) for v in values]
 
 
-def camera_toml(scene: bpy.types.Scene, width: int, height: int) -> str:
+def method(name: str) -> dict[str, Any]:
+    """The core's registry entry of a rendering method (`occlux.methods()`)."""
+    for entry in occlux.methods():
+        if entry["name"] == name:
+            return entry
+    raise KeyError(f"the Occlux core has no method '{name}'")
+
+
+@dataclass(frozen=True)
+class VolumeInput:
+    """The volume settings, read on the main thread so that the work needs no Blender data."""
+
+    path: Path
+    setting: str  # the path as the user typed it, kept on the object
+    raw_dims: tuple[int, int, int]
+    raw_type: str
+    raw_spacing: tuple[float, float, float]
+    fit: float
+    memory_budget_mb: int
+
+    @staticmethod
+    def from_settings(settings) -> VolumeInput:
+        path = Path(bpy.path.abspath(settings.volume_path))
+        if not settings.volume_path or not path.is_file():
+            raise FileNotFoundError(f"no volume file at '{path}'")
+        return VolumeInput(
+            path.resolve(),
+            settings.volume_path,
+            tuple(settings.raw_dims),
+            settings.raw_type,
+            tuple(settings.raw_spacing),
+            settings.fit,
+            settings.memory_budget_mb,
+        )
+
+    @property
+    def stem(self) -> str:
+        return self.path.name.split(".")[0]
+
+    def section(self) -> dict[str, Any]:
+        """The scene's `volume` section: the file, fitted and centred as the add-on places it,
+        with the panel's raw layout and memory budget (which the core's loaders check from the
+        file's header, before reading any voxel)."""
+        section: dict[str, Any] = {
+            "path": str(self.path),
+            "fit": float(self.fit),
+            "centre": [0.0, 0.0, 0.0],
+            "memory_budget_gib": self.memory_budget_mb / 1024.0,
+        }
+        if self.path.suffix.lower() == ".raw":
+            section["raw"] = {
+                "dims": [int(n) for n in self.raw_dims],
+                "type": self.raw_type,
+                "spacing": _floats(self.raw_spacing),
+            }
+        return section
+
+
+def classification_section(settings) -> dict[str, Any]:
+    return {"preset": settings.preset, "density_scale": float(settings.density_scale)}
+
+
+def camera_section(scene: bpy.types.Scene, width: int, height: int) -> dict[str, Any]:
     """The active camera at `width` x `height`. The vertical field of view (or orthographic
     scale) comes from Blender's own projection at that size, so every sensor fit maps."""
     camera = scene.camera
@@ -28,26 +102,27 @@ def camera_toml(scene: bpy.types.Scene, width: int, height: int) -> str:
             f"camera '{camera.name}': Occlux needs a perspective or orthographic camera "
             "without lens shift"
         )
+    # The evaluated depsgraph first: it brings matrix_world up to date with the camera's
+    # location and rotation (a script may just have set them).
+    depsgraph = bpy.context.evaluated_depsgraph_get()
     world = camera.matrix_world
     position = world.translation
     forward = -world.col[2].xyz.normalized()
-    up = world.col[1].xyz.normalized()
-    lines = [
-        "[camera]",
-        f"position = {_list(position)}",
-        f"target = {_list(position + forward)}",
-        f"up = {_list(up)}",
-        f"width = {width}",
-        f"height = {height}",
-    ]
-    depsgraph = bpy.context.evaluated_depsgraph_get()
+    section: dict[str, Any] = {
+        "position": _floats(position),
+        "target": _floats(position + forward),
+        "up": _floats(world.col[1].xyz.normalized()),
+        "width": int(width),
+        "height": int(height),
+    }
     matrix = camera.calc_matrix_camera(depsgraph, x=width, y=height)
     if data.type == "PERSP":
-        lines.append(f"fov_deg = {math.degrees(2.0 * math.atan(1.0 / matrix[1][1])):.9g}")
+        section["fov_deg"] = math.degrees(2.0 * math.atan(1.0 / matrix[1][1]))
     else:  # Occlux's ortho_scale spans the larger image side, as Blender's AUTO fit
         half = 1.0 / matrix[0][0] if width >= height else 1.0 / matrix[1][1]
-        lines += ['projection = "orthographic"', f"ortho_scale = {2.0 * half:.9g}"]
-    return "\n".join(lines) + "\n"
+        section["projection"] = "orthographic"
+        section["ortho_scale"] = 2.0 * half
+    return section
 
 
 def world_radiance(scene: bpy.types.Scene) -> tuple[float, float, float]:
@@ -69,61 +144,79 @@ def world_radiance(scene: bpy.types.Scene) -> tuple[float, float, float]:
     return tuple(c * strength.default_value for c in colour.default_value[:3])
 
 
-def lights_toml(scene: bpy.types.Scene, ambient_only: bool) -> str:
-    """The world as an ambient light and, unless `ambient_only`, the visible sun lights as
-    directional lights (irradiance = strength x colour, towards the sun's +Z)."""
-    ambient = world_radiance(scene)
-    blocks = []
+def lighting(scene: bpy.types.Scene, kinds: Iterable[str]) -> dict[str, Any]:
+    """The `background` and `lights` of the scene: the world as an ambient light and the
+    visible sun lights as directional lights (irradiance = strength x colour, towards the sun's
+    +Z). `kinds` are the light kinds the method renders (its registry entry's `lights`); a lamp
+    the method cannot render, or that the add-on does not map, is refused."""
+    kinds = set(kinds)
+    ambient = _floats(world_radiance(scene))
+    lights: list[dict[str, Any]] = []
     if max(ambient) > 0.0:
-        blocks.append(f'[[lights]]\ntype = "ambient"\nradiance = {_list(ambient)}\n')
+        lights.append({"type": WORLD, "radiance": ambient})
     for obj in scene.objects:
         if obj.type != "LIGHT" or obj.hide_render:
             continue
-        if ambient_only or obj.data.type != "SUN":
-            kind = "only the world's ambient light" if ambient_only else "sun lights"
+        if SUN not in kinds or obj.data.type != "SUN":
+            kind = "sun lights" if SUN in kinds else "only the world's ambient light"
             raise ValueError(f"light '{obj.name}': this takes {kind}; hide it from renders")
-        irradiance = [c * obj.data.energy for c in obj.data.color]
-        direction = obj.matrix_world.col[2].xyz.normalized()
-        blocks.append(
-            f'[[lights]]\ntype = "directional"\ndirection = {_list(direction)}\n'
-            f"irradiance = {_list(irradiance)}\n"
+        lights.append(
+            {
+                "type": SUN,
+                "direction": _floats(obj.matrix_world.col[2].xyz.normalized()),
+                "irradiance": [c * obj.data.energy for c in obj.data.color],
+            }
         )
-    if not blocks:
+    if not lights:
         raise ValueError("the scene has no light: give the world a colour or add a sun")
-    return "background = " + _list(ambient) + "\n" + "".join(blocks)
+    return {"background": ambient, "lights": lights}
 
 
-def volume_toml(source, settings) -> str:
-    """The volume section: the file, fitted and centred as the add-on places it, classified by
-    the preset."""
-    lines = [
-        "[volume]",
-        f"path = {json.dumps(str(Path(source.path).resolve()))}",
-        f"fit = {source.fit:.9g}",
-        "centre = [0, 0, 0]",
-    ]
-    if Path(source.path).suffix.lower() == ".raw":
-        lines += [
-            "[volume.raw]",
-            f"dims = {json.dumps(list(source.raw_dims))}",
-            f'type = "{source.raw_type}"',
-            f"spacing = {_list(source.raw_spacing)}",
-        ]
-    lines += [
-        "[classification]",
-        f'preset = "{settings.preset}"',
-        f"density_scale = {settings.density_scale:.9g}",
-    ]
-    return "\n".join(lines) + "\n"
-
-
-def scene_toml(
-    context: bpy.types.Context, source, width: int, height: int, ambient_only: bool = False
-) -> str:
-    """The whole scene file for the scene's volume settings, camera and lights."""
+def scene_tree(
+    context: bpy.types.Context,
+    source: VolumeInput,
+    width: int,
+    height: int,
+    kinds: Iterable[str] = (WORLD, SUN),
+    render: dict[str, Any] | None = None,
+) -> dict[str, Any]:
+    """The whole scene for the scene's volume settings, camera and lights (of `kinds`), and the
+    `render` section (the method and its parameters) if given."""
     scene = context.scene
-    return (
-        lights_toml(scene, ambient_only)
-        + volume_toml(source, scene.occlux)
-        + camera_toml(scene, width, height)
-    )
+    tree = {
+        "volume": source.section(),
+        "classification": classification_section(scene.occlux),
+        "camera": camera_section(scene, width, height),
+        **lighting(scene, kinds),
+    }
+    if render is not None:
+        tree["render"] = render
+    return tree
+
+
+def volume_tree(source: VolumeInput, settings) -> dict[str, Any]:
+    """A scene of the volume and its classification alone (the camera is unused): what
+    `occlux.ao_volume` and the volume operators need."""
+    return {
+        "volume": source.section(),
+        "classification": classification_section(settings),
+        "camera": dict(UNUSED_CAMERA),
+    }
+
+
+def build(tree: dict[str, Any]) -> occlux.Scene:
+    """The core's scene for `tree`, validated as a scene file is (errors name the key)."""
+    return occlux.Scene.from_dict(tree)
+
+
+def load_volume(scene: occlux.Scene, source: VolumeInput) -> occlux.Volume:
+    """The scene's volume through the core's loaders (raw layout, budget, fit and centre). The
+    core states the budget in GiB; a refusal also names the panel's setting, in its MB."""
+    try:
+        return scene.load_volume()
+    except occlux.OccluxError as e:
+        if "memory budget" not in str(e):
+            raise
+        raise occlux.OccluxError(
+            f"{e} (Memory budget in the Occlux panel: {source.memory_budget_mb} MB)"
+        ) from e

@@ -24,7 +24,7 @@ from occlux_testing import REPO, oiio_read
 SHARED = REPO.parent / "shared" / "data" / "scivis"
 RESULT = "OCCLUX-RESULT "
 # A scene for occlux.ao_volume, which reads only its classification.
-AO_SCENE = '[volume]\nphantom = "sphere"\n[camera]\nposition = [0, -4, 0]\n'
+AO_SCENE = {"volume": {"phantom": "sphere"}, "camera": {"position": [0, -4, 0]}}
 
 # An operator that reports an error raises RuntimeError with the report when called from
 # Python: `attempt` records either the operator's result or that message.
@@ -192,12 +192,14 @@ def test_load_volume_adds_a_classified_volume_object(
 
 def test_bad_input_reports_an_error_and_adds_nothing(extension: Path, tmp_path: Path) -> None:
     """Every volume operator, given a missing file, an unsupported format, a volume over the
-    memory budget (refused from its header: the file holds no voxels), a short raw file, no
-    camera, or cancelled mid-way: a clear message, and no new data-blocks or files."""
+    memory budget (refused by the core's loader from its header: the file holds no voxels), a
+    short raw file, no camera, or cancelled mid-way: a clear message, and no new data-blocks or
+    files."""
     (tmp_path / "notes.txt").write_text("not a volume")
     (tmp_path / "short.raw").write_bytes(bytes(100))
     (tmp_path / "huge.nrrd").write_text(
-        "NRRD0004\ntype: float\ndimension: 3\nsizes: 4096 4096 4096\nencoding: raw\n\n"
+        "NRRD0004\ntype: float\ndimension: 3\nsizes: 4096 4096 4096\nendian: little\n"
+        "encoding: raw\n\n"
     )
     out = tmp_path / "out"
     result, output = blender(
@@ -247,10 +249,13 @@ result["groups"] = len(bpy.data.node_groups)
         assert "notes.txt" in unsupported, unsupported
         short = outcomes[f"{op} short"]  # the check's message is the core's loader's
         assert "short.raw" in short and "100 bytes" in short and "262144" in short, short
-        huge = outcomes[f"{op} huge"]
-        assert "4096 x 4096 x 4096 voxels need 262144 MB" in huge, huge
-        assert "over the memory budget of 2048 MB" in huge, huge
-    assert "over the memory budget of 5 MB" in outcomes["budget"], outcomes["budget"]
+        huge = outcomes[f"{op} huge"]  # the core's message, and the panel's setting
+        assert "huge.nrrd" in huge and "4096x4096x4096 need 256.0 GiB as f32" in huge, huge
+        assert "over the memory budget of 2.0 GiB" in huge, huge
+        assert "Memory budget in the Occlux panel: 2048 MB" in huge, huge
+    budget = outcomes["budget"]
+    assert "tooth.nrrd" in budget and "over the memory budget" in budget, budget
+    assert "Memory budget in the Occlux panel: 5 MB" in budget, budget
     labels = {"compute_ao": "Compute AO", "render_dos": "Render DOS"}
     for op, label in {**labels, "check_cycles": "Check Against Cycles"}.items():
         assert outcomes[f"{op} cancel"] == [["CANCELLED"], f"{label}: cancelled, nothing was added"]
@@ -352,9 +357,7 @@ def test_compute_ao_adds_a_volume_shaded_by_its_ao_grid(
     volume = occlux.Volume.load(path)
     scale = 2.0 / max(np.array(volume.dims) * np.array(volume.spacing))
     fitted = occlux.Volume(volume.values, spacing=tuple(np.array(volume.spacing) * scale))
-    scene = occlux.Scene.from_toml(
-        '[volume]\nphantom = "sphere"\n[camera]\nposition = [0, -4, 0]\n'
-    )
+    scene = occlux.Scene.from_dict(AO_SCENE)
     scene.classification = occlux.Classification.preset(preset)
     want = occlux.ao_volume(scene, method=method, radius=4, device="cpu", volume=fitted)["ao"]
     grid = openvdb.read(str(out / f"{path.stem}-ao.vdb"), "ao")
@@ -374,7 +377,7 @@ def test_jobs_run_on_a_thread_and_cancel_without_adding_anything(
         tmp_path / "user",
         f"""
         import threading, time
-        ops = sys.modules["bl_ext.user_default.occlux.operators"]
+        jobs = sys.modules["bl_ext.user_default.occlux.operators.jobs"]
         s = bpy.context.scene.occlux
         s.volume_path = {str(SHARED / "tooth.nrrd")!r}
         s.output_dir = {str(out) + "/"!r}
@@ -392,11 +395,11 @@ def test_jobs_run_on_a_thread_and_cancel_without_adding_anything(
         # The modal path's thread: the main thread keeps running while the core computes,
         # then cancels it mid-way as ESC does.
         volume = occlux.Volume.load(s.volume_path)
-        scene = occlux.Scene.from_toml(ops.AO_SCENE)
-        progress = ops.JobProgress()
+        scene = occlux.Scene.from_dict({AO_SCENE!r})
+        progress = jobs.JobProgress()
         work = lambda p: occlux.ao_volume(
             scene, method="exact", radius=6, device="cpu", volume=volume, progress=p)
-        run = ops.BackgroundRun(work, progress)
+        run = jobs.BackgroundRun(work, progress)
         result["other_thread"] = run.thread is not threading.current_thread()
         result["polled_while_running"] = bpy.types.OCCLUX_OT_compute_ao.poll(bpy.context)
         polls = 0
@@ -408,7 +411,7 @@ def test_jobs_run_on_a_thread_and_cancel_without_adding_anything(
         result["polls"] = polls
         result["fraction"] = progress.fraction
         result["error"] = repr(run.error)
-        result["active"] = len(ops.ACTIVE)
+        result["active"] = len(jobs.ACTIVE)
         result["polled_after"] = bpy.types.OCCLUX_OT_compute_ao.poll(bpy.context)
         """,
     )
@@ -504,8 +507,8 @@ result["op"] = list(bpy.ops.occlux.render_dos())
 result["exr"] = s.last_exr
 _, header = oc.read_channels(s.last_exr)
 oc.check_camera(scene, json.loads(header["occlux/camera"]))  # Blender's camera, as rendered
-result["method"] = header["occlux/method"]
-result["lighting"] = header["occlux/lighting"]
+result["method"] = json.loads(header["occlux/method"])
+result["lighting"] = json.loads(header["occlux/lighting"])
 result["composite"] = list(bpy.ops.occlux.composite(filepath=s.last_exr, layer="occlusion"))
 tree = scene.compositing_node_group
 image = next(n for n in tree.nodes if n.bl_idname == "CompositorNodeImage")
@@ -520,9 +523,13 @@ result["with_sun"] = attempt(bpy.ops.occlux.render_dos)
     assert result["op"] == ["FINISHED"], output
     exr = out / "phantom-dos.exr"
     assert result["exr"] == str(exr) and sorted(p.name for p in out.iterdir()) == [exr.name]
-    assert "theta_deg: 30.0, grid: 3" in result["method"], result["method"]
-    assert "slice_distance: Some(0.05), distance: Approximate" in result["method"], result["method"]
-    assert "Ambient { radiance: Vec3(1.0, 0.9, 0.8) }" in result["lighting"], result["lighting"]
+    method = result["method"]  # the panel's DOS parameters reached the render
+    assert method["method"] == "dos", method
+    assert method["theta_deg"] == pytest.approx(30.0) and method["grid"] == 3, method
+    assert method["slice_distance"] == pytest.approx(0.05) and method["distance"] == "approximate"
+    lights = result["lighting"]["lights"]  # the world, as the one ambient light
+    assert [light["type"] for light in lights] == ["ambient"], lights
+    assert lights[0]["radiance"] == pytest.approx([1.0, 0.9, 0.8]), lights
     channels = oiio_read(exr)
     assert sorted(channels) == sorted(
         [f"beauty.{c}" for c in "RGBA"] + ["depth.Z"] + [f"dos.{c}" for c in "RGBA"]
@@ -566,7 +573,8 @@ def test_the_modal_path_polls_the_thread_and_esc_cancels(extension: Path, tmp_pa
         import time
         from pathlib import Path
         from types import SimpleNamespace
-        ops = sys.modules["bl_ext.user_default.occlux.operators"]
+        jobs = sys.modules["bl_ext.user_default.occlux.operators.jobs"]
+        volume_ops = sys.modules["bl_ext.user_default.occlux.operators.volume"]
         calls = []
 
         class WindowManager:
@@ -585,10 +593,10 @@ def test_the_modal_path_polls_the_thread_and_esc_cancels(extension: Path, tmp_pa
             def progress_end(self):
                 calls.append("progress_end")
 
-        class ComputeAO(ops.OccluxJob):  # the operator's methods on a plain object
-            bl_label = ops.OCCLUX_OT_compute_ao.bl_label
-            prepare = ops.OCCLUX_OT_compute_ao.prepare
-            finish = ops.OCCLUX_OT_compute_ao.finish
+        class ComputeAO(jobs.OccluxJob):  # the operator's methods on a plain object
+            bl_label = volume_ops.OCCLUX_OT_compute_ao.bl_label
+            prepare = volume_ops.OCCLUX_OT_compute_ao.prepare
+            finish = volume_ops.OCCLUX_OT_compute_ao.finish
             cancel_after = 0
             def report(self, kind, message):
                 calls.append((sorted(kind)[0], message))
@@ -646,3 +654,145 @@ def test_the_modal_path_polls_the_thread_and_esc_cancels(extension: Path, tmp_pa
     assert updates and all(0.0 <= u <= 1.0 for u in updates), calls
     assert calls[-2:][0] == "progress_end" and calls[-1][0] == "INFO", calls
     assert statuses[-1].startswith("AO (cdf, radius 4) of tooth.nrrd"), statuses
+
+
+def test_property_limits_defaults_and_choices_come_from_the_registry(
+    extension: Path, tmp_path: Path
+) -> None:
+    """The panel's DOS and AO settings take their limits, defaults and choices from the core's
+    method registry (`occlux.methods()`), and what they clamp to is what the core accepts."""
+    result, _ = blender(
+        extension,
+        tmp_path / "user",
+        """
+        s = bpy.context.scene.occlux
+        props = s.bl_rna.properties
+        def number(name):
+            p = props[name]
+            return {"min": p.hard_min, "max": p.hard_max, "default": p.default,
+                    "description": p.description}
+        def choice(name):
+            p = props[name]
+            return {"items": [[i.identifier, i.description] for i in p.enum_items],
+                    "default": p.default, "description": p.description}
+        result["numbers"] = {n: number(n) for n in ("dos_theta_deg", "dos_grid", "ao_radius")}
+        result["choices"] = {n: choice(n) for n in ("dos_distance", "ao_method", "preset")}
+        s.dos_theta_deg, s.dos_grid, s.ao_radius = 95.0, 99, 100000
+        result["clamped"] = [s.dos_theta_deg, s.dos_grid, s.ao_radius]
+        # The clamped values are ones the core takes.
+        occlux.Scene.from_dict({"volume": {"phantom": "sphere"},
+            "camera": {"position": [0, -4, 0]},
+            "render": {"method": "dos", "theta_deg": s.dos_theta_deg, "grid": s.dos_grid}})
+        """,
+    )
+    registry = {m["name"]: {p["key"]: p for p in m["params"]} for m in occlux.methods()}
+    dos, ao = registry["dos"], registry["ao"]
+    numbers, choices = result["numbers"], result["choices"]
+
+    theta, grid, radius = numbers["dos_theta_deg"], numbers["dos_grid"], numbers["ao_radius"]
+    assert dos["theta_deg"]["range"]["max_inclusive"] is False  # [0, 90): max just below
+    assert dos["theta_deg"]["range"]["max"] - 0.11 < theta["max"] < dos["theta_deg"]["range"]["max"]
+    assert theta["min"] == dos["theta_deg"]["range"]["min"]
+    assert theta["default"] == pytest.approx(dos["theta_deg"]["default"])
+    assert dos["theta_deg"]["doc"] in theta["description"], theta
+    assert [grid["min"], grid["max"], grid["default"]] == [
+        dos["grid"]["range"]["min"], dos["grid"]["range"]["max"], dos["grid"]["default"]
+    ]  # fmt: skip
+    assert [radius["min"], radius["max"], radius["default"]] == [
+        ao["ao_radius"]["range"]["min"], ao["ao_radius"]["range"]["max"],
+        ao["ao_radius"]["default"],
+    ]  # fmt: skip
+    assert result["clamped"] == [pytest.approx(theta["max"]), grid["max"], radius["max"]]
+
+    for prop, param in (("dos_distance", dos["distance"]), ("ao_method", ao["ao_method"])):
+        want = [[o["name"], o["doc"]] for o in param["options"]]
+        assert choices[prop]["items"] == want, (prop, choices[prop])
+        assert choices[prop]["default"] == param["default"]
+        assert choices[prop]["description"] == param["doc"]
+    assert [i for i, _ in choices["preset"]["items"]] == occlux.PRESETS
+
+
+def test_a_raw_volume_over_the_memory_budget_is_refused_by_the_core(
+    extension: Path, tmp_path: Path
+) -> None:
+    """The panel's raw layout and memory budget reach the core's raw loader, which refuses a
+    volume whose float32 copy exceeds the budget, naming the file and the budget, before
+    anything is written; under a larger budget the same file loads."""
+    raw = tmp_path / "scan.raw"
+    raw.write_bytes(np.arange(128 * 128 * 64, dtype=np.uint8).tobytes())  # 4 MB as float32
+    out = tmp_path / "out"
+    result, output = blender(
+        extension,
+        tmp_path / "user",
+        CAMERA_AND_WORLD
+        + f"""
+import glob, tempfile
+s = scene.occlux
+s.volume_path = {str(raw)!r}
+s.raw_dims, s.raw_type, s.raw_spacing = (128, 128, 64), "uint8", (1.0, 1.0, 2.0)
+s.output_dir = {str(out) + "/"!r}
+s.memory_budget_mb, s.device, s.check_spp, s.check_seeds = 1, "cpu", 2, 2
+counts = lambda: [len(bpy.data.objects), len(bpy.data.volumes), len(bpy.data.images)]
+checks = lambda: set(glob.glob(tempfile.gettempdir() + "/occlux-check-*"))
+before, checks_before = counts(), checks()
+result["refused"] = {{op: attempt(getattr(bpy.ops.occlux, op))
+    for op in ("import_volume", "compute_ao", "render_dos", "check_cycles")}}
+result["unchanged"] = before == counts() and checks() == checks_before
+import os
+result["written"] = sorted(os.listdir({str(out)!r})) if os.path.isdir({str(out)!r}) else []
+s.memory_budget_mb = 8
+result["loaded"] = attempt(bpy.ops.occlux.import_volume)
+obj = bpy.data.objects["scan"]
+corners = [list(c) for c in obj.bound_box]
+result["sides"] = [max(c[a] for c in corners) - min(c[a] for c in corners) for a in range(3)]
+""",
+    )
+    for op, message in result["refused"].items():
+        assert "scan.raw" in message and "128x128x64" in message, (op, message)
+        assert "over the memory budget" in message, (op, message)
+        assert "Memory budget in the Occlux panel: 1 MB" in message, (op, message)
+    assert result["unchanged"] and result["written"] == [], output
+    assert result["loaded"] == ["FINISHED"], output
+    # The raw layout reached the loader: 128 x 128 x 64 voxels of spacing (1, 1, 2), fitted.
+    assert result["sides"] == pytest.approx([2.0, 2.0, 2.0], abs=0.05), result["sides"]
+
+
+def test_the_scene_built_from_blender_describes_blenders_camera(
+    extension: Path, tmp_path: Path
+) -> None:
+    """The scene the add-on builds from the Blender scene (`Scene.from_dict`) describes the
+    camera Blender renders with (perspective with either sensor fit, and orthographic) and the
+    world as its ambient light."""
+    result, _ = blender(
+        extension,
+        tmp_path / "user",
+        CAMERA_AND_WORLD
+        + f"""
+import occlux.cycles as oc
+scenes = sys.modules["bl_ext.user_default.occlux.scenes"]
+s = scene.occlux
+s.volume_path = {str(phantom_npy(tmp_path))!r}
+cases = {{}}
+for name, kind, fit, size in (("auto", "PERSP", "AUTO", (400, 300)),
+                              ("vertical", "PERSP", "VERTICAL", (300, 400)),
+                              ("ortho", "ORTHO", "AUTO", (300, 400))):
+    camera.data.type, camera.data.sensor_fit = kind, fit
+    camera.data.ortho_scale = 3.0
+    scene.render.resolution_x, scene.render.resolution_y = size
+    tree = scenes.scene_tree(bpy.context, scenes.VolumeInput.from_settings(s), *size)
+    described = scenes.build(tree).describe()
+    cases[name] = {{"occlux": described["camera"], "blender": oc.camera_frustum(scene),
+                    "lights": described["lighting"]["lights"]}}
+result["cases"] = cases
+""",
+    )
+    for name, case in result["cases"].items():
+        ours, blender_camera = case["occlux"], case["blender"]
+        for key in ("position", "forward", "up", "half_extent"):
+            np.testing.assert_allclose(
+                ours[key], blender_camera[key], rtol=1e-4, atol=1e-4, err_msg=f"{name} {key}"
+            )
+        assert (ours["projection"]["type"] == "perspective") == blender_camera["perspective"]
+        assert [light["type"] for light in case["lights"]] == ["ambient"], case["lights"]
+        assert case["lights"][0]["radiance"] == pytest.approx([1.0, 0.9, 0.8])
+    assert result["cases"]["ortho"]["occlux"]["projection"]["type"] == "orthographic"

@@ -1,0 +1,201 @@
+"""The frame of the add-on's long operators (jobs) and where they write.
+
+A job's `prepare` reads the settings and checks them on the main thread and returns the work, a
+function of a `JobProgress` that touches no Blender data (so that it can run in a thread);
+`finish` brings its result into the scene on the main thread. From the UI (invoke) the work runs
+on a thread while a modal timer shows its progress and ESC cancels it; from scripts (execute) it
+runs on the calling thread. A job that fails or is cancelled adds nothing."""
+
+from __future__ import annotations
+
+import tempfile
+import threading
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+import bpy
+import occlux
+from bpy.props import IntProperty
+
+
+def output_dir(settings) -> Path:
+    """The output folder: `//` is the .blend file's folder (a temporary folder for an unsaved
+    file)."""
+    raw = settings.output_dir or "//occlux/"
+    if raw.startswith("//") and not bpy.data.filepath:
+        return Path(tempfile.gettempdir()) / "occlux" / raw[2:]
+    return Path(bpy.path.abspath(raw))
+
+
+def report_dir(settings) -> Path:
+    """Beside the .blend file; the output folder for an unsaved file."""
+    return Path(bpy.path.abspath("//")) if bpy.data.filepath else output_dir(settings)
+
+
+class JobProgress:
+    """The progress callback the core calls, from its own threads: it only records (no Blender
+    calls off the main thread) and answers False once cancelled, which stops the core."""
+
+    def __init__(self, cancel_after: int = 0) -> None:
+        self.done = 0
+        self.total = 1
+        self.calls = 0
+        self.cancel_after = cancel_after
+        self.cancel = threading.Event()
+        self.lock = threading.Lock()
+
+    def __call__(self, done: int, total: int) -> bool:
+        with self.lock:
+            self.done, self.total = done, max(total, 1)
+            self.calls += 1
+            if self.cancel_after and self.calls >= self.cancel_after:
+                self.cancel.set()
+        return not self.cancel.is_set()
+
+    @property
+    def fraction(self) -> float:
+        with self.lock:
+            return min(self.done / self.total, 1.0)
+
+
+def set_status(context: bpy.types.Context, text: str, fraction: float = 0.0) -> None:
+    """The status line and progress bar the panel shows."""
+    settings = context.scene.occlux
+    settings.status = text
+    settings.progress = fraction
+    for window in context.window_manager.windows:
+        for area in window.screen.areas:
+            if area.type == "VIEW_3D":
+                area.tag_redraw()
+
+
+class BackgroundRun:
+    """A job's work on its own thread. The core releases the GIL while it computes, so
+    Blender's main thread stays free to poll `running` from a modal timer."""
+
+    def __init__(self, work: Callable[[JobProgress], Any], progress: JobProgress) -> None:
+        self.progress = progress
+        self.result: Any = None
+        self.error: BaseException | None = None
+        self.thread = threading.Thread(target=self._run, args=(work,), daemon=True)
+        ACTIVE.add(self)
+        self.thread.start()
+
+    def _run(self, work: Callable[[JobProgress], Any]) -> None:
+        try:
+            self.result = work(self.progress)
+        except BaseException as e:  # handed to the main thread, which reports it
+            self.error = e
+
+    @property
+    def running(self) -> bool:
+        if self.thread.is_alive():
+            return True
+        ACTIVE.discard(self)
+        return False
+
+
+# Runs in flight: unregistering the add-on cancels them, so no thread outlives it.
+ACTIVE: set[BackgroundRun] = set()
+
+
+def cancel_all() -> None:
+    """Cancels the runs in flight and waits for their threads (on unregister)."""
+    for run in list(ACTIVE):
+        run.progress.cancel.set()
+        run.thread.join()
+    ACTIVE.clear()
+
+
+class OccluxJob:
+    """The frame of a long operator (see the module's docstring)."""
+
+    cancel_after: IntProperty(
+        name="Cancel after",
+        description="Cancel after this many progress reports, as ESC does (for scripts and "
+        "tests; 0: never)",
+        min=0,
+        default=0,
+        options={"HIDDEN", "SKIP_SAVE"},
+    )
+
+    def prepare(self, context: bpy.types.Context) -> Callable[[JobProgress], Any]:
+        raise NotImplementedError
+
+    def finish(self, context: bpy.types.Context, result: Any) -> str:
+        raise NotImplementedError
+
+    def errors(self) -> tuple[type[BaseException], ...]:
+        return (OSError, ValueError, TypeError, occlux.OccluxError)
+
+    def execute(self, context: bpy.types.Context) -> set[str]:
+        """The synchronous path (scripts, EXEC_DEFAULT): the same work, on this thread."""
+        progress = JobProgress(self.cancel_after)
+        set_status(context, f"{self.bl_label}: running")
+        try:
+            result = self.prepare(context)(progress)
+        except self.errors() as e:
+            return self.failed(context, e, progress)
+        return self.succeeded(context, result)
+
+    @classmethod
+    def poll(cls, context: bpy.types.Context) -> bool:
+        return not any(run.running for run in list(ACTIVE))  # one job at a time
+
+    def invoke(self, context: bpy.types.Context, event: bpy.types.Event) -> set[str]:
+        if context.window is None:  # no window to poll from (headless): run it here
+            return self.execute(context)
+        try:
+            work = self.prepare(context)
+        except self.errors() as e:
+            return self.failed(context, e, None)
+        wm = context.window_manager
+        self._run = BackgroundRun(work, JobProgress(self.cancel_after))
+        self._timer = wm.event_timer_add(0.1, window=context.window)
+        wm.progress_begin(0, 1)
+        wm.modal_handler_add(self)
+        set_status(context, f"{self.bl_label}: running (Esc cancels)")
+        return {"RUNNING_MODAL"}
+
+    def modal(self, context: bpy.types.Context, event: bpy.types.Event) -> set[str]:
+        run = self._run
+        if event.type == "ESC" and event.value == "PRESS":
+            run.progress.cancel.set()  # the core stops at its next progress report
+            set_status(context, f"{self.bl_label}: cancelling", run.progress.fraction)
+            return {"RUNNING_MODAL"}
+        if event.type != "TIMER":
+            return {"PASS_THROUGH"}
+        wm = context.window_manager
+        if run.running:
+            wm.progress_update(run.progress.fraction)
+            set_status(context, f"{self.bl_label}: running (Esc cancels)", run.progress.fraction)
+            return {"RUNNING_MODAL"}
+        wm.event_timer_remove(self._timer)
+        wm.progress_end()
+        if run.error is None:
+            return self.succeeded(context, run.result)
+        if isinstance(run.error, self.errors()):
+            return self.failed(context, run.error, run.progress)
+        raise run.error
+
+    def succeeded(self, context: bpy.types.Context, result: Any) -> set[str]:
+        try:
+            message = self.finish(context, result)
+        except self.errors() as e:
+            return self.failed(context, e, None)
+        set_status(context, message, 1.0)
+        self.report({"INFO"}, message)
+        return {"FINISHED"}
+
+    def failed(
+        self, context: bpy.types.Context, error: BaseException, progress: JobProgress | None
+    ) -> set[str]:
+        if progress is not None and progress.cancel.is_set():
+            message = f"{self.bl_label}: cancelled, nothing was added"
+            set_status(context, message)
+            self.report({"WARNING"}, message)
+        else:
+            set_status(context, f"{self.bl_label} failed: {error}")
+            self.report({"ERROR"}, str(error))
+        return {"CANCELLED"}
