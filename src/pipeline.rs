@@ -90,8 +90,10 @@ pub fn render(
         lut: &lut,
         camera: &scene.camera,
         lighting: &scene.lighting,
+        compute,
+        progress,
     };
-    scene.method.render(&input, compute, progress)
+    scene.method.render(&input)
 }
 
 /// How renders are written.

@@ -9,9 +9,7 @@
 //! `methods!` list at the bottom of this file.
 
 use crate::error::{Error, Result};
-use crate::gpu::Compute;
 use crate::lights::{LightKind, Lighting};
-use crate::progress::Progress;
 use crate::render::{MethodInput, Rendered};
 use serde::de::DeserializeOwned;
 use serde::{Deserialize, Serialize};
@@ -212,12 +210,7 @@ pub trait RenderMethod: Clone + Debug + PartialEq + Default + Serialize + Deseri
     /// the form the renderer reads (unit normals).
     fn resolve(self) -> Result<Self>;
 
-    fn render(
-        &self,
-        input: &MethodInput,
-        compute: &Compute,
-        progress: &dyn Progress,
-    ) -> Result<Rendered>;
+    fn render(&self, input: &MethodInput) -> Result<Rendered>;
 }
 
 /// The method a scene renders with when its `[render]` names none.
@@ -247,6 +240,47 @@ pub fn describe() -> Value {
             })
             .collect(),
     )
+}
+
+/// The registry as text for people: per method its summary, lights, layers and grids, and per
+/// parameter its default, what it accepts and what it means.
+pub fn summary() -> String {
+    let mut text = String::new();
+    for (spec, defaults) in METHODS.iter().zip(defaults()) {
+        let lights: Vec<&str> = spec.lights.iter().map(|l| l.name()).collect();
+        let grids = if spec.grids.is_empty() {
+            "-".to_owned()
+        } else {
+            spec.grids.join(", ")
+        };
+        text += &format!("{}: {}\n", spec.name, spec.summary);
+        text += &format!(
+            "  lights {}; layers {}; grids {grids}\n",
+            lights.join(", "),
+            spec.layers.join(", ")
+        );
+        for param in spec.params {
+            let default = match defaults.get(param.key) {
+                None | Some(Value::Null) => "-".to_owned(),
+                Some(value) => value.to_string(),
+            };
+            let accepts = match &param.kind {
+                ParamKind::Float { range, .. } | ParamKind::Int { range } => range.to_string(),
+                ParamKind::Bool => "true, false".to_owned(),
+                ParamKind::Choice { options } => options
+                    .iter()
+                    .map(|o| o.name)
+                    .collect::<Vec<_>>()
+                    .join(", "),
+                ParamKind::Planes { max } => format!("at most {max} planes"),
+            };
+            text += &format!(
+                "  {:<19} {:<10} {:<22} {}\n",
+                param.key, default, accepts, param.doc
+            );
+        }
+    }
+    text
 }
 
 impl Method {
@@ -370,14 +404,9 @@ macro_rules! methods {
             }
 
             /// Renders the method for an already loaded volume.
-            pub fn render(
-                &self,
-                input: &MethodInput,
-                compute: &Compute,
-                progress: &dyn Progress,
-            ) -> Result<Rendered> {
+            pub fn render(&self, input: &MethodInput) -> Result<Rendered> {
                 match self {
-                    $(Method::$variant(params) => params.render(input, compute, progress),)*
+                    $(Method::$variant(params) => params.render(input),)*
                 }
             }
         }

@@ -29,32 +29,14 @@
 //! irradiance = 3
 //!
 //! [render]
-//! method = "gradient"                          # or "unshaded", "ao" or "dos" (below)
-//! # method = "dos"                             # directional occlusion shading (ambient lights only)
-//! # theta_deg = 50                             # cone half-angle in [0, 90)
-//! # grid = 5                                   # n x n samples on the cone base
-//! # slice_distance = 0.01                      # world units; default: the smallest voxel spacing
-//! # distance = "exact"                         # or "approximate"
-//! # formulation = "slices"                     # or "rays" (lock-step ray marching)
-//! # self_occlusion = false                     # true: light also crosses the sample's own half segment
-//! # clip_planes = [{ point = [0, 0, 0], normal = [1, 0, 0] }]   # removes x > 0
+//! method = "dos"                               # a registered method (default "gradient")
+//! theta_deg = 50                               # that method's parameters
 //! ```
 //!
-//! AO-shaded DVR (the VAO paper): `method = "ao"` computes an AO volume first, then renders
-//! with the ambient light times its openness, plus gradient-shaded direct light unless
-//! `direct = false`:
-//!
-//! ```toml
-//! [render]
-//! method = "ao"
-//! ao_method = "cdf"             # cdf, gauss, gauss-exact, penner or exact
-//! ao_radius = 10                # tangent-sphere radius in voxels
-//! ao_field = "extinction"       # or "value": the raw values
-//! ao_variance = false           # also export the `ao_variance` grid
-//! opacity_modulation = false    # alpha' = alpha min(variance / variance_max, 1)
-//! # variance_max = 25.0         # default: the largest local variance
-//! direct = true
-//! ```
+//! `[render]` is read through the method registry ([`crate::registry`]): `method` picks the
+//! method, whose parameters struct takes the other keys (unknown ones are errors naming the
+//! methods that do take them), checked against the registry's ranges. `occlux methods` lists
+//! every method with its parameters, defaults and ranges.
 
 use crate::camera::{Camera, Projection};
 use crate::classify::{

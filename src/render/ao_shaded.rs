@@ -4,8 +4,6 @@
 
 use crate::ao::vao::{self, Estimator, FieldKind, ScalarField, VaoParams, MAX_RADIUS};
 use crate::error::Result;
-use crate::gpu::Compute;
-use crate::progress::Progress;
 use crate::registry::{Choice, MethodSpec, ParamKind, ParamSpec, Range, RenderMethod, ALL_LIGHTS};
 use crate::render::raycast::{
     self, AoFactors, GradientShading, RaycastInput, RaycastParams, Shading, ERT_THRESHOLD,
@@ -210,24 +208,15 @@ impl RenderMethod for AoParams {
         Ok(self)
     }
 
-    fn render(
-        &self,
-        input: &MethodInput,
-        compute: &Compute,
-        progress: &dyn Progress,
-    ) -> Result<Rendered> {
-        render(compute, input, self, progress)
+    fn render(&self, input: &MethodInput) -> Result<Rendered> {
+        render(input, self)
     }
 }
 
 /// Computes the AO volume (progress: its units first, then the image rows) and renders with it;
 /// the grids are the openness and, if asked for, the local variance.
-pub fn render(
-    compute: &Compute,
-    input: &MethodInput,
-    params: &AoParams,
-    progress: &dyn Progress,
-) -> Result<Rendered> {
+pub fn render(input: &MethodInput, params: &AoParams) -> Result<Rendered> {
+    let (compute, progress) = (input.compute, input.progress);
     let field = ScalarField::new(input.volume, input.classification, params.ao_field)?;
     let ao = vao::ao_volume(compute, &field, &params.vao(), progress)?;
     let opacity = match (&ao.variance, params.opacity_modulation) {

@@ -8,11 +8,13 @@ pub mod reference;
 
 use crate::camera::Camera;
 use crate::classify::{Classification, Lut};
+use crate::gpu::Compute;
 use crate::lights::Lighting;
+use crate::progress::Progress;
 use crate::volume::Volume;
 
 /// What every rendering method reads: the placed volume, its classification baked into a
-/// table, and the scene's camera and lights.
+/// table, the scene's camera and lights, where to compute and whom to report progress to.
 #[derive(Clone, Copy)]
 pub struct MethodInput<'a> {
     pub volume: &'a Volume,
@@ -20,6 +22,8 @@ pub struct MethodInput<'a> {
     pub lut: &'a Lut,
     pub camera: &'a Camera,
     pub lighting: &'a Lighting,
+    pub compute: &'a Compute,
+    pub progress: &'a dyn Progress,
 }
 
 /// A method's render and the grids it computed on the way (AO-shaded DVR's `ao`), which

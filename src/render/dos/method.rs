@@ -2,9 +2,7 @@
 
 use super::{ClipPlane, DosInput, DosParams, MAX_CLIP_PLANES, MAX_GRID};
 use crate::error::{Error, Result};
-use crate::gpu::Compute;
 use crate::lights::LightKind;
-use crate::progress::Progress;
 use crate::registry::{Choice, MethodSpec, ParamKind, ParamSpec, Range, RenderMethod};
 use crate::render::{MethodInput, Rendered};
 
@@ -115,13 +113,8 @@ impl RenderMethod for DosParams {
         Ok(self)
     }
 
-    fn render(
-        &self,
-        input: &MethodInput,
-        compute: &Compute,
-        progress: &dyn Progress,
-    ) -> Result<Rendered> {
-        let input = DosInput {
+    fn render(&self, input: &MethodInput) -> Result<Rendered> {
+        let dos_input = DosInput {
             volume: input.volume,
             lut: input.lut,
             camera: input.camera,
@@ -129,7 +122,7 @@ impl RenderMethod for DosParams {
             params: self,
         };
         Ok(Rendered {
-            image: super::render(compute, &input, progress)?,
+            image: super::render(input.compute, &dos_input, input.progress)?,
             grids: Vec::new(),
         })
     }

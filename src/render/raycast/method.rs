@@ -3,8 +3,6 @@
 
 use super::{GradientShading, RaycastInput, RaycastParams, Shading};
 use crate::error::Result;
-use crate::gpu::Compute;
-use crate::progress::Progress;
 use crate::registry::{MethodSpec, ParamKind, ParamSpec, Range, RenderMethod, ALL_LIGHTS};
 use crate::render::{MethodInput, Rendered};
 use serde::{Deserialize, Serialize};
@@ -122,13 +120,8 @@ impl GradientParams {
 }
 
 /// Renders the ray caster's parameters without AO volumes.
-fn render_plain(
-    params: &RaycastParams,
-    input: &MethodInput,
-    compute: &Compute,
-    progress: &dyn Progress,
-) -> Result<Rendered> {
-    let input = RaycastInput {
+fn render_plain(params: &RaycastParams, input: &MethodInput) -> Result<Rendered> {
+    let raycast_input = RaycastInput {
         volume: input.volume,
         lut: input.lut,
         camera: input.camera,
@@ -137,7 +130,7 @@ fn render_plain(
         ao: None,
     };
     Ok(Rendered {
-        image: super::render(compute, &input, progress)?,
+        image: super::render(input.compute, &raycast_input, input.progress)?,
         grids: Vec::new(),
     })
 }
@@ -161,13 +154,8 @@ impl RenderMethod for UnshadedParams {
         Ok(self)
     }
 
-    fn render(
-        &self,
-        input: &MethodInput,
-        compute: &Compute,
-        progress: &dyn Progress,
-    ) -> Result<Rendered> {
-        render_plain(&self.raycast(), input, compute, progress)
+    fn render(&self, input: &MethodInput) -> Result<Rendered> {
+        render_plain(&self.raycast(), input)
     }
 }
 
@@ -189,12 +177,7 @@ impl RenderMethod for GradientParams {
         Ok(self)
     }
 
-    fn render(
-        &self,
-        input: &MethodInput,
-        compute: &Compute,
-        progress: &dyn Progress,
-    ) -> Result<Rendered> {
-        render_plain(&self.raycast(), input, compute, progress)
+    fn render(&self, input: &MethodInput) -> Result<Rendered> {
+        render_plain(&self.raycast(), input)
     }
 }
