@@ -545,3 +545,50 @@ grid = 2
     assert_eq!(&occlusion.pixels, img.occlusion.as_ref().unwrap());
     assert!(img.occlusion.unwrap().iter().any(|o| *o < 1.0));
 }
+
+#[test]
+fn bench_times_the_registered_methods_and_records_their_parameters() {
+    use occlux::registry::Method;
+    let out = tempfile::tempdir().unwrap();
+    let json = out.path().join("bench.json");
+    let engine = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../shared/data/scivis/engine.nrrd"
+    );
+    let run = occlux(&[
+        "bench",
+        "--volume",
+        engine,
+        "--sizes",
+        "8",
+        "--repeats",
+        "1",
+        "--device",
+        "cpu",
+        "-o",
+        json.to_str().unwrap(),
+    ]);
+    assert!(
+        run.status.success(),
+        "{}",
+        String::from_utf8_lossy(&run.stderr)
+    );
+    let report: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    let rows = report["rows"].as_array().unwrap();
+    let cases: Vec<&str> = rows.iter().map(|r| r["method"].as_str().unwrap()).collect();
+    assert_eq!(
+        cases,
+        ["unshaded", "gradient", "dos-n2", "dos-n5", "dos-n13"]
+    );
+    for row in rows {
+        // Each row's parameters are a method as a scene's [render] gives it.
+        let method: Method = serde_json::from_value(row["params"].clone()).unwrap();
+        assert!(row["method"]
+            .as_str()
+            .unwrap()
+            .starts_with(method.spec().name));
+    }
+    assert_eq!(rows[3]["params"]["grid"], 5);
+    assert_eq!(rows[1]["ratio_to_gradient"], 1.0);
+}

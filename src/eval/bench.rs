@@ -13,6 +13,7 @@ use crate::render::dos::{self, DosInput, DosParams};
 use crate::render::raycast::{
     cpu, gpu, GradientParams, RaycastInput, RaycastParams, UnshadedParams,
 };
+use crate::render::MethodInput;
 use crate::scene::{Scene, SourceKind};
 use serde::Serialize;
 use std::path::{Path, PathBuf};
@@ -88,17 +89,20 @@ fn cases() -> Vec<(String, Method)> {
 /// What every case renders: the volume, its table, the camera at the size timed, the lights.
 struct View<'a> {
     volume: &'a crate::volume::Volume,
+    classification: &'a crate::classify::Classification,
     lut: &'a crate::classify::Lut,
     camera: &'a crate::camera::Camera,
     lighting: &'a crate::lights::Lighting,
+    compute: &'a Compute,
 }
 
-/// Renders `method` once on the CPU or, with `uploaded`, on the GPU with the volume resident.
-fn render_resident(
-    method: &Method,
-    view: &View,
-    uploaded: Option<&(&std::sync::Arc<crate::gpu::GpuContext>, gpu::GpuVolume)>,
-) -> Result<()> {
+/// Renders `method` once on the view's device; on the GPU the ray caster and DOS read the
+/// volume `uploaded` once for all renders.
+fn render_resident(method: &Method, view: &View, uploaded: Option<&gpu::GpuVolume>) -> Result<()> {
+    let resident = match (view.compute, uploaded) {
+        (Compute::Gpu(ctx), Some(volume)) => Some((ctx, volume)),
+        _ => None,
+    };
     let raycast = |params: &RaycastParams| {
         let input = RaycastInput {
             volume: view.volume,
@@ -108,7 +112,7 @@ fn render_resident(
             params,
             ao: None,
         };
-        match uploaded {
+        match resident {
             Some((ctx, volume)) => gpu::render_uploaded(ctx, volume, &input, &NoProgress),
             None => cpu::render(&input, &NoProgress),
         }
@@ -124,17 +128,25 @@ fn render_resident(
                 lighting: view.lighting,
                 params,
             };
-            match uploaded {
+            match resident {
                 Some((ctx, volume)) => {
                     dos::gpu::render_uploaded(ctx, volume, &input, &NoProgress).map(drop)
                 }
                 None => dos::cpu::render(&input, &NoProgress).map(drop),
             }
         }
-        Method::Ao(_) => Err(Error::param(
-            "bench",
-            "AO-shaded DVR is timed by `occlux bench-ao` (its AO volume) and `bench` (the ray caster)",
-        )),
+        // Methods without a resident GPU path render as a scene would, uploading each time.
+        other => other
+            .render(&MethodInput {
+                volume: view.volume,
+                classification: view.classification,
+                lut: view.lut,
+                camera: view.camera,
+                lighting: view.lighting,
+                compute: view.compute,
+                progress: &NoProgress,
+            })
+            .map(drop),
     }
 }
 
@@ -176,7 +188,7 @@ pub fn run(args: &BenchArgs, quiet: bool) -> Result<()> {
                         compute.describe()
                     );
                 }
-                Some((ctx, uploaded))
+                Some(uploaded)
             }
             Compute::Cpu => None,
         };
@@ -193,9 +205,11 @@ pub fn run(args: &BenchArgs, quiet: bool) -> Result<()> {
                 };
                 let view = View {
                     volume: &volume,
+                    classification: &scene.classification,
                     lut: &lut,
                     camera: &camera,
                     lighting,
+                    compute,
                 };
                 let timing = timed(args.repeats, || {
                     render_resident(&method, &view, uploaded.as_ref())
