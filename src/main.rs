@@ -178,11 +178,21 @@ enum Command {
     /// `occlux.cycles` in the venv that .ci/run creates: .venv, or $OCCLUX_PYTHON).
     CheckCycles {
         scene: PathBuf,
+        /// ambient, single or multiple (Cycles has no counterpart of the cone phase function).
         #[arg(long, value_enum, default_value = "single")]
         estimator: EstimatorName,
         /// Samples per pixel, for Occlux and for Cycles.
         #[arg(long, default_value_t = 256)]
         spp: u32,
+        /// Cycles renders (spp / seeds samples each); their spread is Cycles' standard error.
+        #[arg(long, default_value_t = occlux::eval::cycles::DEFAULT_SEEDS)]
+        seeds: u32,
+        /// Volume bounces (multiple only).
+        #[arg(long, default_value_t = 8)]
+        bounces: u32,
+        /// Henyey-Greenstein asymmetry (single and multiple).
+        #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
+        g: f32,
         #[arg(short, long, default_value = "occlux-check")]
         out: PathBuf,
     },
@@ -347,8 +357,19 @@ fn run(cli: Cli) -> occlux::Result<()> {
             scene,
             estimator,
             spp,
+            seeds,
+            bounces,
+            g,
             out,
-        } => occlux::eval::cycles::run(&scene, estimator.as_str(), spp, &out),
+        } => occlux::eval::cycles::run(&occlux::eval::cycles::CheckOptions {
+            scene: &scene,
+            estimator: estimator.as_str(),
+            spp,
+            seeds,
+            bounces,
+            g,
+            out: &out,
+        }),
     }
 }
 

@@ -14,6 +14,7 @@ mod render;
 mod scene;
 mod vdb;
 mod volume;
+mod writers;
 
 use errors::OccluxError;
 pub(crate) use errors::{py_err, unknown_choice};
@@ -49,5 +50,6 @@ fn _occlux(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(export::export, m)?)?;
     m.add_function(wrap_pyfunction!(ao::ao_volume, m)?)?;
     m.add_function(wrap_pyfunction!(methods, m)?)?;
+    writers::register(m)?;
     Ok(())
 }

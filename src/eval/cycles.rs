@@ -1,6 +1,7 @@
 //! `occlux check-cycles`: runs the Python harness (`python -m occlux.cycles`) that renders the
-//! scene with Blender's Cycles and compares it with Occlux's Monte Carlo reference. The harness
-//! needs Blender as a Python module, so it runs in the venv that `.ci/run` creates.
+//! scene with Blender's Cycles and compares it with Occlux's Monte Carlo reference, passing it
+//! every option it takes. The harness needs Blender as a Python module, so it runs in the venv
+//! that `.ci/run` creates; it computes Occlux's export and reference in-process.
 
 use crate::error::{Error, Result};
 use std::path::{Path, PathBuf};
@@ -32,8 +33,52 @@ fn find_python() -> Option<PathBuf> {
         .find(|python| python.is_file())
 }
 
-/// Runs the harness for `scene`, writing its report, images and error map into `out`.
-pub fn run(scene: &Path, estimator: &str, spp: u32, out: &Path) -> Result<()> {
+/// Cycles renders per comparison: `DEFAULT_SEEDS` in `occlux.cycles` (plugin/python/occlux/cycles/
+/// common.py), the harness's own default.
+pub const DEFAULT_SEEDS: u32 = 32;
+
+/// What `occlux check-cycles` passes to the harness: every option `python -m occlux.cycles`
+/// takes, with its defaults in the CLI.
+#[derive(Clone, Copy, Debug)]
+pub struct CheckOptions<'a> {
+    pub scene: &'a Path,
+    /// ambient, single or multiple.
+    pub estimator: &'a str,
+    /// Samples per pixel, for Occlux and for Cycles.
+    pub spp: u32,
+    /// Cycles renders (spp / seeds samples each).
+    pub seeds: u32,
+    /// Volume bounces (multiple only).
+    pub bounces: u32,
+    /// Henyey-Greenstein asymmetry (single and multiple).
+    pub g: f32,
+    /// Where the report, images and error map go.
+    pub out: &'a Path,
+}
+
+impl CheckOptions<'_> {
+    /// The harness's command-line arguments after `-m occlux.cycles`.
+    pub fn harness_args(&self) -> Vec<std::ffi::OsString> {
+        let mut args: Vec<std::ffi::OsString> = vec![self.scene.into()];
+        for (key, value) in [
+            ("--estimator", self.estimator.to_owned()),
+            ("--spp", self.spp.to_string()),
+            ("--seeds", self.seeds.to_string()),
+            ("--bounces", self.bounces.to_string()),
+            // `--g=-0.3`: a negative value in its own argument would read as an option.
+            ("--g", self.g.to_string()),
+        ] {
+            args.push(format!("{key}={value}").into());
+        }
+        args.push("--out".into());
+        args.push(self.out.into());
+        args
+    }
+}
+
+/// Runs the harness for `options.scene`, writing its report, images and error map into
+/// `options.out`. The harness computes Occlux's side in-process (the `occlux` package).
+pub fn run(options: &CheckOptions<'_>) -> Result<()> {
     let python = find_python().ok_or_else(|| {
         Error::param(
             "check-cycles",
@@ -58,17 +103,11 @@ pub fn run(scene: &Path, estimator: &str, spp: u32, out: &Path) -> Result<()> {
             ),
         ));
     }
-    let mut command = Command::new(&python);
-    command
+    let status = Command::new(&python)
         .args(["-m", "occlux.cycles"])
-        .arg(scene)
-        .args(["--estimator", estimator, "--spp", &spp.to_string(), "--out"])
-        .arg(out);
-    // The harness runs this same binary for the export and the reference.
-    if let Ok(exe) = std::env::current_exe() {
-        command.env("OCCLUX_BIN", exe);
-    }
-    let status = command.status().map_err(|e| Error::io(&python, e))?;
+        .args(options.harness_args())
+        .status()
+        .map_err(|e| Error::io(&python, e))?;
     if status.success() {
         Ok(())
     } else {
@@ -76,5 +115,41 @@ pub fn run(scene: &Path, estimator: &str, spp: u32, out: &Path) -> Result<()> {
             "check-cycles",
             format!("the Cycles harness failed ({status})"),
         ))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_option_reaches_the_harness() {
+        let options = CheckOptions {
+            scene: Path::new("scene.toml"),
+            estimator: "multiple",
+            spp: 64,
+            seeds: 8,
+            bounces: 3,
+            g: -0.3,
+            out: Path::new("out dir"),
+        };
+        let args: Vec<String> = options
+            .harness_args()
+            .iter()
+            .map(|a| a.to_string_lossy().into_owned())
+            .collect();
+        assert_eq!(
+            args,
+            [
+                "scene.toml",
+                "--estimator=multiple",
+                "--spp=64",
+                "--seeds=8",
+                "--bounces=3",
+                "--g=-0.3",
+                "--out",
+                "out dir"
+            ]
+        );
     }
 }

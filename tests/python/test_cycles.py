@@ -1,33 +1,56 @@
 """The Cycles cross-check (``occlux.cycles``).
 
-First the Blender side on its own: a volume whose transmittance is known in closed form, through
-the mapped material and camera. Then Occlux's Monte Carlo references against Cycles, estimator by
-estimator, on a phantom and on a real CT (the engine): they must agree within noise. Last, a
-deliberately wrong mapping (albedo 0.7 for 0.8, the camera turned by one degree) must fail the
-same criteria, so that the agreement tests can fail.
+First what the harness takes from the core: the scene as the core resolved it must be what the
+scene file says (camera, lights, transfer function in raw units), from a file or from a Scene
+object, and the core's writers must write what the harness gives them. Then the Blender side on
+its own: a volume whose transmittance is known in closed form, through the mapped material and
+camera. Then Occlux's Monte Carlo references against Cycles, estimator by estimator, on a phantom
+and on a real CT (the engine): they must agree within noise, with Occlux in the same process (no
+subprocess). Last, a deliberately wrong mapping (albedo 0.7 for 0.8, the camera turned by one
+degree) must fail the same criteria, so that the agreement tests can fail; and ``occlux
+check-cycles`` must hand every option to the harness.
 """
 
 from __future__ import annotations
 
 import json
 import math
+import os
+import subprocess
+import tomllib
 from pathlib import Path
 
 import numpy as np
+import occlux
 import occlux.cycles as oc
 import pytest
-from occlux_testing import occlux_binary, oiio_read, run_occlux
+from occlux.cycles.cli import parser as harness_parser
+from occlux_testing import oiio_read, run_occlux
 
 SPP = 128  # per pixel, for Occlux and for Cycles (32 renders of 4 samples)
 SEEDS = 32
 SHARED = Path(__file__).resolve().parents[3] / "shared" / "data" / "scivis"
+EXAMPLES = Path(__file__).resolve().parents[2] / "examples"
 
 
 @pytest.fixture(autouse=True)
-def harness_binary(monkeypatch):
-    """The harness runs the CLI that the other tests run."""
-    monkeypatch.setenv("OCCLUX_BIN", str(occlux_binary()))
+def quiet_vulkan(monkeypatch):
+    """wgpu's harmless warning about XDG_RUNTIME_DIR, silenced."""
     monkeypatch.setenv("XDG_RUNTIME_DIR", "/tmp")
+
+
+@pytest.fixture
+def no_subprocess(monkeypatch):
+    """Any attempt to start a process fails the test: the harness runs Occlux in-process."""
+
+    def refuse(*args, **kwargs):
+        raise AssertionError(f"the harness started a process: {args!r}")
+
+    monkeypatch.setattr(subprocess, "Popen", refuse)
+    monkeypatch.setattr(subprocess, "run", refuse)
+    monkeypatch.setattr(os, "system", refuse)
+    monkeypatch.setattr(os, "posix_spawn", refuse)
+    monkeypatch.setattr(os, "fork", refuse)
 
 
 def write_nrrd(path: Path, values: np.ndarray) -> None:
@@ -230,7 +253,9 @@ CASES = [
 
 
 @pytest.mark.parametrize(("volume", "estimator", "bounces", "g"), CASES)
-def test_occlux_agrees_with_cycles(request, tmp_path, capsys, volume, estimator, bounces, g):
+def test_occlux_agrees_with_cycles(
+    request, tmp_path, capsys, no_subprocess, volume, estimator, bounces, g
+):
     scene = request.getfixturevalue(volume)
     argv = [str(scene), "--estimator", estimator, "--spp", str(SPP), "--seeds", str(SEEDS)]
     argv += ["--bounces", str(bounces), "--g", str(g), "--out", str(tmp_path)]
@@ -330,3 +355,212 @@ def test_refuses_what_cycles_cannot_reproduce(phantom, ramp, tmp_path):
     # A VDB exported from another scene: its grid is not where this scene puts the volume.
     with pytest.raises(oc.HarnessError, match="export it again"):
         oc.build_scene(phantom, ramp.parent / "ramp.vdb", "ambient")
+
+
+# ---- What the harness takes from the core ----
+
+
+def unit(v) -> np.ndarray:
+    a = np.asarray(v, dtype=np.float64)
+    return a / np.linalg.norm(a)
+
+
+def grey_or_rgb(value) -> tuple[float, float, float]:
+    if isinstance(value, int | float):
+        return (float(value),) * 3
+    return tuple(float(c) for c in value)
+
+
+def as_the_file_says(path: Path) -> dict:
+    """The scene file read by hand with src/scene.rs's defaults and semantics (what the harness
+    parsed itself before the core described scenes): the oracle of the tests below."""
+    toml = tomllib.loads(path.read_text())
+    cam = toml["camera"]
+    position = np.asarray(cam["position"], dtype=np.float64)
+    forward = unit(np.asarray(cam.get("target", [0, 0, 0]), dtype=np.float64) - position)
+    right = unit(np.cross(forward, cam.get("up", [0, 0, 1])))
+    width, height = cam.get("width", 512), cam.get("height", 512)
+    perspective = cam.get("projection", "perspective") == "perspective"
+    if "lens_mm" in cam:
+        # Blender's sensor fit AUTO: the sensor spans the larger image side.
+        tan_large = 0.5 * cam.get("sensor_mm", 36.0) / cam["lens_mm"]
+        fov_y = 2.0 * math.atan(tan_large * min(1.0, height / width))
+    else:
+        fov_y = math.radians(cam.get("fov_deg", 40.0))
+    ambient, lights = np.zeros(3), []
+    for light in toml.get("lights", []):
+        if light["type"] == "ambient":
+            ambient += grey_or_rgb(light["radiance"])
+        elif light["type"] == "directional":
+            lights.append(("directional", unit(light["direction"]), light["irradiance"]))
+        else:
+            lights.append(("point", light["position"], light["intensity"]))
+    tf = toml["classification"]
+    vmin, vmax = occlux.Scene.load(path).load_volume().value_range
+    scale = tf.get("density_scale", 1.0)
+    points = sorted(
+        (
+            p["value"] if tf.get("units") == "raw" else vmin + p["value"] * (vmax - vmin),
+            p["sigma_t"] * scale,
+            grey_or_rgb(p.get("albedo", 1.0)),
+            grey_or_rgb(p.get("emission", 0.0)),
+        )
+        for p in tf["points"]
+    )
+    return {
+        "position": position,
+        "forward": forward,
+        "right": right,
+        "up": np.cross(right, forward),
+        "perspective": perspective,
+        "fov_y": fov_y if perspective else None,
+        "ortho_scale": None if perspective else cam.get("ortho_scale", 2.0),
+        "size": (width, height),
+        "ambient": ambient,
+        "background": grey_or_rgb(toml.get("background", 0.0)),
+        "lights": lights,
+        "points": points,
+    }
+
+
+@pytest.mark.parametrize("volume", ["engine", "phantom", "ramp"])
+def test_the_scene_from_the_core_is_the_scene_file(request, volume):
+    """Camera frame, field of view (from a lens, from degrees) or orthographic scale, image
+    size, lights and the transfer function in raw units, as the core resolved them."""
+    path = request.getfixturevalue(volume)
+    spec, want = oc.load_scene(path), as_the_file_says(path)
+    cam = spec.camera
+    for key in ("position", "forward", "right", "up"):
+        np.testing.assert_allclose(getattr(cam, key), want[key], rtol=1e-6, atol=1e-6)
+    assert cam.perspective == want["perspective"]
+    for key in ("fov_y", "ortho_scale"):
+        got = getattr(cam, key)
+        assert got is None if want[key] is None else got == pytest.approx(want[key], rel=1e-6)
+    assert (cam.width, cam.height) == want["size"]
+    np.testing.assert_allclose(spec.ambient, want["ambient"], rtol=1e-6)
+    np.testing.assert_allclose(spec.background, want["background"], rtol=1e-6)
+    assert [light.kind for light in spec.lights] == [kind for kind, _, _ in want["lights"]]
+    for light, (_, vector, rgb) in zip(spec.lights, want["lights"], strict=True):
+        np.testing.assert_allclose(light.vector, vector, rtol=1e-6, atol=1e-7)
+        np.testing.assert_allclose(light.rgb, grey_or_rgb(rgb), rtol=1e-6)
+    assert len(spec.points) == len(want["points"])
+    for point, (value, sigma_t, albedo, emission) in zip(spec.points, want["points"], strict=True):
+        assert point.value == pytest.approx(value, rel=1e-6, abs=1e-6)
+        assert point.sigma_t == pytest.approx(sigma_t, rel=1e-6)
+        np.testing.assert_allclose(point.albedo, albedo, rtol=1e-6)
+        np.testing.assert_allclose(point.emission, emission, rtol=1e-6)
+    volume = occlux.Scene.load(path).load_volume()
+    assert (spec.dims, spec.origin, spec.spacing) == (volume.dims, volume.origin, volume.spacing)
+    assert spec.box == volume.bounds
+
+
+def test_a_scene_object_builds_the_same_blender_scene(phantom, tmp_path, openvdb):
+    """What the add-on does: a Scene from the scene's tree (no file) and the VDB of its volume;
+    the harness maps it as it maps the file, and pads the sparse `value` grid on the scene's
+    voxels."""
+    scene = occlux.Scene.from_dict(tomllib.loads(phantom.read_text()), base_dir=phantom.parent)
+    from_object, from_file = oc.load_scene(scene), oc.load_scene(phantom)
+    assert from_object.path is None and from_file.path == phantom
+    assert from_object == oc.SceneSpec(**{**vars(from_file), "path": None})
+    volume = scene.load_volume()
+    occlux.write_vdb(tmp_path / "phantom.vdb", {"value": volume})
+    built = oc.build_scene(scene, tmp_path / "phantom.vdb", "multiple", bounces=2, g=0.3)
+    oc.check_camera(built, scene.describe()["camera"])
+    assert built.cycles.volume_bounces == 2
+    assert sorted(o.data.type for o in built.objects if o.type == "LIGHT") == ["POINT", "SUN"]
+    # The padded grid: the scene's voxels plus one repeated on every side, placed one voxel out.
+    grid = openvdb.read(str(tmp_path / "phantom-cycles.vdb"), "value")
+    np.testing.assert_allclose(grid.transform.voxelSize(), volume.spacing, rtol=1e-6)
+    corner = np.asarray(volume.origin) - np.asarray(volume.spacing)
+    ijk = np.asarray(grid.transform.worldToIndex(tuple(corner)))
+    np.testing.assert_allclose(ijk, np.round(ijk), atol=1e-4)
+    nx, ny, nz = volume.dims
+    dense = np.zeros((nx + 2, ny + 2, nz + 2), dtype=np.float32)
+    grid.copyToArray(dense, ijk=tuple(int(i) for i in np.round(ijk)))
+    want = np.pad(np.asarray(volume.values), 1, mode="edge").transpose(2, 1, 0)
+    np.testing.assert_array_equal(dense, want)
+    import bpy
+
+    oc._remove_previous(bpy)
+
+
+def test_the_core_writes_what_the_harness_gives_it(tmp_path):
+    """The error map's codes exactly, Cycles' float layers, the report's text, and a reference
+    as `occlux reference` writes it, all through the core's atomic writers."""
+    codes = np.arange(256, dtype=np.uint8).reshape(16, 16)
+    rgb = np.stack([codes, codes[::-1], np.full_like(codes, 7)], axis=-1)
+    occlux.write_png(tmp_path / "map.png", rgb)
+    back = oiio_read(tmp_path / "map.png")
+    got = np.stack([back[c] for c in "RGB"], axis=-1)
+    np.testing.assert_array_equal(np.round(got * 255).astype(np.uint8), rgb)
+    with pytest.raises(occlux.OccluxError, match="uint8"):
+        occlux.write_png(tmp_path / "bad.png", rgb.astype(np.float32))
+
+    rng = np.random.default_rng(3)
+    mean, stderr = rng.random((5, 7, 3)), rng.random((5, 7, 3)) * 1e-3
+    layers = {"beauty": mean, "stderr": stderr}
+    occlux.write_exr_layers(tmp_path / "c.exr", layers, metadata={"occlux/note": "{}"})
+    channels, attributes = oc.read_channels(tmp_path / "c.exr")
+    for name, array in layers.items():
+        for c, channel in enumerate("RGB"):
+            want = array[..., c].astype(np.float32)
+            np.testing.assert_array_equal(channels[f"{name}.{channel}"], want)
+    assert attributes["occlux/note"] == "{}"
+    mean[2, 3, 1] = np.nan
+    with pytest.raises(occlux.OccluxError, match="non-finite"):
+        occlux.write_exr_layers(tmp_path / "nan.exr", {"beauty": mean})
+    assert not (tmp_path / "nan.exr").exists()
+    occlux.write_text(tmp_path / "r.json", '{"a": 1}\n')
+    assert json.loads((tmp_path / "r.json").read_text()) == {"a": 1}
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["c.exr", "map.png", "r.json"]
+
+    scene = occlux.Scene.from_toml(
+        '[volume]\nphantom = "sphere"\nsize = 8\n[camera]\nposition = [0, -4, 0]\n'
+        'width = 6\nheight = 4\n[[lights]]\ntype = "ambient"\nradiance = 0.5\n'
+    )
+    result = occlux.reference(scene, estimator="ambient", spp=8, seed=oc.OCCLUX_SEED)
+    written = occlux.write_reference(
+        tmp_path, result, scene, stem="s-ambient", estimator="ambient", seed=oc.OCCLUX_SEED
+    )
+    assert [Path(p).name for p in written] == ["s-ambient.exr", "s-ambient.png"]
+    image = oc.read_reference(tmp_path / "s-ambient.exr")
+    np.testing.assert_array_equal(image.beauty, result.mean)
+    np.testing.assert_array_equal(image.stderr, result.stderr)
+    assert image.reference["estimator"] == "ambient" and image.reference["spp"] == 8
+    assert image.camera == json.loads(json.dumps(scene.describe()["camera"]))
+
+
+# ---- The command line ----
+
+
+def test_check_cycles_hands_every_option_to_the_harness(tmp_path, monkeypatch):
+    """`occlux check-cycles` runs `python -m occlux.cycles` with every option the harness takes
+    (a stand-in Python records them), and its defaults are the harness's."""
+    record = tmp_path / "argv"
+    python = tmp_path / "python"
+    python.write_text(f'#!/bin/sh\n[ "$1" = -c ] && exit 0\nprintf "%s\\n" "$@" > "{record}"\n')
+    python.chmod(0o755)
+    monkeypatch.setenv("OCCLUX_PYTHON", str(python))
+
+    def harness_args(*args: str) -> dict:
+        run_occlux("check-cycles", *args)
+        argv = record.read_text().splitlines()
+        assert argv[:2] == ["-m", "occlux.cycles"], argv
+        return vars(harness_parser().parse_args(argv[2:]))
+
+    defaults = vars(harness_parser().parse_args(["scene.toml"]))
+    assert harness_args("scene.toml") == defaults
+    given = {
+        "scene": Path("scene.toml"),
+        "estimator": "multiple",
+        "spp": 64,
+        "seeds": 8,
+        "bounces": 3,
+        "g": -0.3,
+        "out": tmp_path / "out",
+    }
+    assert given.keys() == defaults.keys()  # every option of the harness...
+    assert all(given[k] != defaults[k] for k in given if k != "scene")  # ...off its default
+    argv = ["scene.toml", "--estimator", "multiple", "--spp", "64", "--seeds", "8"]
+    argv += ["--bounces", "3", "--g", "-0.3", "-o", str(tmp_path / "out")]
+    assert harness_args(*argv) == given

@@ -14,6 +14,10 @@ grids, OpenEXR layers and USD stages that Blender and other tools read::
     [m["name"] for m in occlux.methods()]  # the registry: unshaded, gradient, ao, dos
     occlux.write_vdb("engine-ao.vdb", grids)
 
+``write_exr_layers``, ``write_png``, ``write_text`` and ``write_reference`` write data made in
+Python (numpy layers, an 8-bit picture, text, a reference) with the core's atomic writers.
+``occlux.cycles`` checks the references against Blender's Cycles.
+
 ``occlux.usd`` authors the same USD stages through usd-core's ``pxr`` API, into a file or into
 a stage of your own pipeline.
 
@@ -37,6 +41,10 @@ from occlux._occlux import (
     render,
     stage_description,
     write_exr,
+    write_exr_layers,
+    write_png,
+    write_reference,
+    write_text,
     write_vdb,
 )
 
@@ -57,5 +65,9 @@ __all__ = [
     "render",
     "stage_description",
     "write_exr",
+    "write_exr_layers",
+    "write_png",
+    "write_reference",
+    "write_text",
     "write_vdb",
 ]

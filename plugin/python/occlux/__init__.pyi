@@ -197,6 +197,44 @@ def write_exr(path: _Path, result: RenderResult, scene: Scene, float32: bool = F
     ``float32``) and ``depth`` (Z, float32), with the scene's camera, method and lighting as text
     attributes ``occlux/*`` in the header."""
 
+def write_exr_layers(
+    path: _Path,
+    layers: dict[str, npt.ArrayLike],
+    metadata: dict[str, str] | None = None,
+    float32: bool = True,
+) -> None:
+    """Writes ``{name: array}`` (in the dict's order) as one multilayer OpenEXR, atomically: an
+    array of shape (height, width) is a layer with channel ``Y``; one of shape (height, width,
+    c) has channels Y (c = 1), R, G, B (3) or R, G, B, A (4), stored as ``layer.channel``, row 0
+    at the top. ``metadata`` becomes text attributes of the header. Samples are float32, or
+    float16 unless ``float32``; NaN or infinite samples are an OccluxError and nothing is
+    written."""
+
+def write_png(path: _Path, rgb: npt.NDArray[np.uint8]) -> None:
+    """Writes an 8-bit picture, shape (height, width, 3) and dtype uint8, row 0 at the top, as
+    an sRGB PNG, atomically; the codes are stored as they are."""
+
+def write_text(path: _Path, text: str) -> None:
+    """Writes ``text`` (UTF-8) to ``path``, atomically."""
+
+def write_reference(
+    out_dir: _Path,
+    result: ReferenceResult,
+    scene: Scene,
+    stem: str = "reference",
+    estimator: Literal["ambient", "cone", "single", "multiple"] = "single",
+    seed: int = 1,
+    bounces: int = 8,
+    g: float = 0.0,
+    aperture_deg: float = 30.0,
+    exposure: float = 1.0,
+) -> list[str]:
+    """Writes :func:`reference`'s ``result`` (made with these ``estimator``, ``seed``,
+    ``bounces``, ``g`` and ``aperture_deg``) as ``occlux reference`` does: ``STEM.exr`` (float32
+    layers ``beauty`` and ``stderr``; ``occlux/camera``, ``occlux/method``, ``occlux/lighting``
+    and ``occlux/reference`` as JSON in the header) and ``STEM.png`` (a preview of the mean) in
+    ``out_dir``; returns the paths."""
+
 def write_vdb(
     path: _Path,
     grids: dict[str, Volume],
