@@ -377,24 +377,8 @@ fn run(cli: Cli) -> occlux::Result<()> {
 fn methods(json: bool) {
     if json {
         println!("{:#}", occlux::registry::describe());
-        return;
-    }
-    for spec in occlux::registry::METHODS {
-        let lights: Vec<&str> = spec.lights.iter().map(|l| l.name()).collect();
-        println!("{}: {}", spec.name, spec.summary);
-        println!(
-            "  lights {}; layers {}; grids {}",
-            lights.join(", "),
-            spec.layers.join(", "),
-            if spec.grids.is_empty() {
-                "-".to_owned()
-            } else {
-                spec.grids.join(", ")
-            }
-        );
-        for param in spec.params {
-            println!("  {:<20} {}", param.key, param.doc);
-        }
+    } else {
+        print!("{}", occlux::registry::summary());
     }
 }
 
