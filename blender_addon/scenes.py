@@ -211,7 +211,7 @@ def build(tree: dict[str, Any]) -> occlux.Scene:
 
 def load_volume(scene: occlux.Scene, source: VolumeInput) -> occlux.Volume:
     """The scene's volume through the core's loaders (raw layout, budget, fit and centre). The
-    core states the budget in GiB; a refusal also names the panel's setting, in its MB."""
+    core states the budget in GiB or MiB; a refusal also names the panel's setting, in its MB."""
     try:
         return scene.load_volume()
     except occlux.OccluxError as e:

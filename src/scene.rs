@@ -314,6 +314,9 @@ impl SceneFile {
             method: Method::from_table(self.render)?,
         };
         scene.lighting.validate()?;
+        // A method lit by fewer kinds of light than the scene has is refused here, not after
+        // the volume has loaded.
+        scene.method.spec().check_lights(&scene.lighting)?;
         Ok(scene)
     }
 }

@@ -222,17 +222,23 @@ type = "directional"
 direction = [0, 0, 1]
 irradiance = 1
 [render]
-method = "dos"
+method = "gradient"
 "#;
-    let scene = Scene::parse(text, Path::new(".")).unwrap();
-    let err = spec.check_lights(&scene.lighting).unwrap_err().to_string();
+    // The scene is refused as it is read...
+    let dos = text.replace("\"gradient\"", "\"dos\"");
+    let err = Scene::parse(&dos, Path::new(".")).unwrap_err().to_string();
     assert!(
         err.contains("lights[1]") && err.contains("ambient"),
         "{err}"
     );
+    // ...and a scene whose method is changed afterwards, when it renders.
+    let mut scene = Scene::parse(text, Path::new(".")).unwrap();
+    let direct = spec.check_lights(&scene.lighting).unwrap_err().to_string();
+    assert!(err.contains(&direct), "{err} / {direct}");
+    scene.method = Method::Dos(Default::default());
     let volume = scene.load_volume().unwrap();
     let render = pipeline::render(&scene, &volume, &Compute::Cpu, &NoProgress);
-    assert_eq!(render.err().map(|e| e.to_string()), Some(err));
+    assert_eq!(render.err().map(|e| e.to_string()), Some(direct));
 }
 
 #[test]

@@ -271,15 +271,28 @@ pub fn check_budget(dims: [usize; 3], budget: u64) -> Result<usize> {
     let bytes = (count as u128) * 4;
     if bytes > budget as u128 {
         return Err(Error::Volume(format!(
-            "dims {}x{}x{} need {:.1} GiB as f32, over the memory budget of {:.1} GiB",
+            "dims {}x{}x{} need {} as f32, over the memory budget of {}",
             dims[0],
             dims[1],
             dims[2],
-            bytes as f64 / (1u64 << 30) as f64,
-            budget as f64 / (1u64 << 30) as f64
+            size_text(bytes as f64),
+            size_text(budget as f64)
         )));
     }
     Ok(count)
+}
+
+/// A byte count for people: GiB from 1 GiB up, else MiB, else KiB (a 5 MiB budget must not
+/// read "0.0 GiB").
+fn size_text(bytes: f64) -> String {
+    const KIB: f64 = 1024.0;
+    if bytes >= KIB * KIB * KIB {
+        format!("{:.1} GiB", bytes / (KIB * KIB * KIB))
+    } else if bytes >= KIB * KIB {
+        format!("{:.1} MiB", bytes / (KIB * KIB))
+    } else {
+        format!("{:.1} KiB", bytes / KIB)
+    }
 }
 
 fn unflatten(dims: [usize; 3], index: usize) -> [usize; 3] {
@@ -293,6 +306,22 @@ fn unflatten(dims: [usize; 3], index: usize) -> [usize; 3] {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn budget_errors_say_sizes_in_readable_units() {
+        let err = check_budget([512, 512, 512], 5 << 20)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            err.contains("need 512.0 MiB") && err.contains("budget of 5.0 MiB"),
+            "{err}"
+        );
+        let err = check_budget([4096; 3], 2 << 30).unwrap_err().to_string();
+        assert!(
+            err.contains("256.0 GiB") && err.contains("2.0 GiB"),
+            "{err}"
+        );
+    }
 
     fn ramp() -> Volume {
         // v = 2x + 3y - z, linear, so trilinear sampling and central differences are exact.
