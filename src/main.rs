@@ -3,7 +3,7 @@
 use clap::{Parser, Subcommand};
 use occlux::ao::commands::{ao_reference_volume, ao_volume};
 use occlux::ao::reference::AoVariant;
-use occlux::ao::vao::VaoParams;
+use occlux::ao::AoVolumeParams;
 use occlux::eval::{bench, dos_accuracy, vao_accuracy, vao_bench};
 use occlux::export::exr::Precision;
 use occlux::export::vdb::{Compression, VdbOptions};
@@ -138,15 +138,16 @@ enum Command {
         #[arg(short, long, default_value = "occlux-out")]
         out: PathBuf,
     },
-    /// AO volume of the scene's classified volume (VAO: Ruiz, Szirmay-Kalos et al.):
+    /// AO volume of the scene's classified volume (VAO: Ruiz, Szirmay-Kalos et al.; or the sweep):
     /// OUT/STEM-ao.vdb (grid `ao`, openness 1 = unoccluded; `ao_variance` with --variance),
     /// OUT/STEM-ao.png (the middle z slice) and OUT/STEM-ao.json (parameters and timing).
     Ao {
         scene: PathBuf,
-        /// cdf, gauss (Winitzki's erf), gauss-exact, penner, or exact (the voxel count: slow).
+        /// VAO: cdf, gauss (Winitzki's erf), gauss-exact, penner, or exact (the voxel count:
+        /// slow); or sweep (the visibility, mean transmittance over all directions; CPU).
         #[arg(long, default_value = "cdf")]
         method: String,
-        /// Tangent-sphere radius in voxels.
+        /// Tangent-sphere radius in voxels (VAO).
         #[arg(long, default_value_t = 10)]
         radius: u32,
         /// extinction (the classified sigma_t) or value (the raw values).
@@ -338,16 +339,17 @@ fn run(cli: Cli) -> occlux::Result<()> {
             compression,
             half,
         } => {
-            let params = VaoParams {
+            let params = AoVolumeParams {
+                method: method.parse()?,
                 radius,
-                estimator: method.parse()?,
+                field: field.parse()?,
                 variance,
             };
             let vdb = VdbOptions {
                 compression: compression.into(),
                 half,
             };
-            ao_volume(&scene, &params, field.parse()?, device, &out, &vdb, quiet)
+            ao_volume(&scene, &params, device, &out, &vdb, quiet)
         }
         Command::Methods { json } => {
             methods(json);

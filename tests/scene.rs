@@ -166,8 +166,8 @@ fn ao_method_reads_its_keys_and_refuses_them_elsewhere() {
     let Method::Ao(p) = scene.method else {
         panic!("{:?}", scene.method)
     };
-    assert_eq!(p.vao().estimator, Estimator::Penner);
-    assert_eq!(p.vao().radius, 6);
+    assert_eq!(p.vao().unwrap().estimator, Estimator::Penner);
+    assert_eq!(p.vao().unwrap().radius, 6);
     assert_eq!(p.ao_field, FieldKind::Value);
     assert!(p.opacity_modulation && p.variance_max == Some(2.5));
     assert_eq!(
@@ -179,7 +179,10 @@ fn ao_method_reads_its_keys_and_refuses_them_elsewhere() {
     let Method::Ao(p) = scene.method else {
         panic!()
     };
-    assert_eq!((p.vao().estimator, p.vao().radius), (Estimator::Cdf, 10));
+    assert_eq!(
+        (p.vao().unwrap().estimator, p.vao().unwrap().radius),
+        (Estimator::Cdf, 10)
+    );
     assert!(matches!(
         p.raycast().shading,
         Shading::AmbientOcclusion { direct: Some(_) }

@@ -5,15 +5,16 @@ use crate::py_err;
 use crate::render::{compute, scene_volume, with_progress};
 use crate::scene::PyScene;
 use crate::volume::PyVolume;
-use occlux::ao::vao::{self, ScalarField, VaoParams};
+use occlux::ao::{self, AoVolumeParams};
 use occlux::render::ao_shaded::{AO_GRID, AO_VARIANCE_GRID};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
 /// Computes the AO volume of `scene` (its own volume, or `volume`) classified by its
-/// classification: `method` "cdf", "gauss", "gauss-exact", "penner" or "exact" (the voxel
-/// count, slow, always on the CPU), tangent-sphere `radius` in voxels, `field` "extinction" or
-/// "value". Returns {"ao": Volume (openness, 1 = unoccluded)} plus "ao_variance" when
+/// classification: `method` "cdf", "gauss", "gauss-exact", "penner" or "exact" (VAO; the
+/// voxel count is slow and always on the CPU) with tangent-sphere `radius` in voxels and
+/// `field` "extinction" or "value", or "sweep" (the visibility, the mean transmittance of the
+/// extinction over all directions, on the CPU). Returns {"ao": Volume (openness, 1 = unoccluded)} plus "ao_variance" when
 /// `variance` is true, on the volume's grid. `device` and `progress` as for `render`
 /// (returning False from `progress` cancels). The GIL is released while it computes.
 #[pyfunction]
@@ -33,19 +34,18 @@ pub fn ao_volume<'py>(
     volume: Option<&PyVolume>,
     progress: Option<Py<PyAny>>,
 ) -> PyResult<Bound<'py, PyDict>> {
-    let params = VaoParams {
+    let params = AoVolumeParams {
+        method: method.parse().map_err(py_err)?,
         radius,
-        estimator: method.parse().map_err(py_err)?,
+        field: field.parse().map_err(py_err)?,
         variance,
     };
     params.validate().map_err(py_err)?;
-    let kind = field.parse().map_err(py_err)?;
     let compute = compute(py, device)?;
     let scene = &scene.inner;
     let volume = scene_volume(py, scene, volume)?;
     let ao = with_progress(py, progress, |report| {
-        let scalar = ScalarField::new(&volume, &scene.classification, kind)?;
-        vao::ao_volume(&compute, &scalar, &params, report)
+        ao::ao_volume(&compute, &volume, &scene.classification, &params, report)
     })?;
     let grids = PyDict::new(py);
     grids.set_item(AO_GRID, PyVolume::from(ao.openness))?;

@@ -2,7 +2,7 @@
 //! AO volume): progress, timing, and the files they write.
 
 use super::reference::{ao_reference, AoReferenceParams, AoVariant};
-use super::vao::{self, FieldKind, ScalarField, VaoParams};
+use super::{AoMethod, AoVolumeParams};
 use crate::error::{Error, Result};
 use crate::export::vdb::{write_vdb, VdbGrid, VdbOptions};
 use crate::gpu::{Compute, DeviceChoice};
@@ -12,12 +12,11 @@ use crate::scene::Scene;
 use std::path::Path;
 use std::time::Instant;
 
-/// Computes a VAO volume of the scene file's classified volume with progress and timing, and
+/// Computes an AO volume of the scene file's classified volume with progress and timing, and
 /// writes `OUT/STEM-ao.{vdb,png,json}`.
 pub fn ao_volume(
     scene: &Path,
-    params: &VaoParams,
-    field: FieldKind,
+    params: &AoVolumeParams,
     device: DeviceChoice,
     out: &Path,
     vdb: &VdbOptions,
@@ -30,36 +29,34 @@ pub fn ao_volume(
         notice(quiet, line);
     }
     let volume = parsed.load_volume()?;
-    let started = Instant::now();
-    let scalar = ScalarField::new(&volume, &parsed.classification, field)?;
-    let field_ms = started.elapsed().as_secs_f64() * 1e3;
-    // The exact count is a CPU reference whatever the device.
-    let on = if params.estimator == vao::Estimator::Exact {
+    let on = if params.method.cpu_only() {
         Compute::Cpu.describe()
     } else {
         compute.describe()
     };
     let bar = Bar::new(quiet, 1, "ao volume");
     let started = Instant::now();
-    let ao = vao::ao_volume(&compute, &scalar, params, &bar)?;
+    let ao = super::ao_volume(&compute, &volume, &parsed.classification, params, &bar)?;
     let ao_ms = started.elapsed().as_secs_f64() * 1e3;
     bar.finish();
+    let reach = match params.method {
+        AoMethod::Vao(_) => format!("radius {} voxels", params.radius),
+        AoMethod::Sweep => "the whole volume".to_owned(),
+    };
     say(
         quiet,
         format_args!(
-            "{} AO volume, radius {} voxels: field in {field_ms:.1} ms, AO in {ao_ms:.1} ms on {on}",
-            params.estimator.name(),
-            params.radius
+            "{} AO volume, {reach}: {ao_ms:.1} ms on {on}",
+            params.method.name()
         ),
     );
     let record = serde_json::json!({
         "scene": scene.display().to_string(),
-        "method": params.estimator.name(),
+        "method": params.method,
         "radius_voxels": params.radius,
-        "field": field,
+        "field": params.field,
         "dims": volume.dims(),
         "device": on,
-        "field_ms": field_ms,
         "ao_ms": ao_ms,
     });
     let written = write_ao(&ao, &record, out, &stem(scene), vdb)?;

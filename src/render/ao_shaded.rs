@@ -2,7 +2,8 @@
 //! the same device, then the ray caster with `Shading::AmbientOcclusion` reading it, optionally
 //! with the paper's opacity modulation by local variance.
 
-use crate::ao::vao::{self, Estimator, FieldKind, ScalarField, VaoParams, MAX_RADIUS};
+use crate::ao::vao::{self, Estimator, FieldKind, VaoParams, MAX_RADIUS};
+use crate::ao::{self as ao_volumes, AoMethod, AoVolumeParams};
 use crate::error::Result;
 use crate::registry::{Choice, MethodSpec, ParamKind, ParamSpec, Range, RenderMethod, ALL_LIGHTS};
 use crate::render::raycast::{
@@ -24,7 +25,7 @@ pub const AO_VARIANCE_GRID: &str = "ao_variance";
 pub struct AoParams {
     pub step: Option<f32>,
     pub ert_threshold: f32,
-    pub ao_method: Estimator,
+    pub ao_method: AoMethod,
     pub ao_radius: u32,
     pub ao_field: FieldKind,
     pub ao_variance: bool,
@@ -43,7 +44,7 @@ impl Default for AoParams {
         Self {
             step: march.step,
             ert_threshold: march.ert_threshold,
-            ao_method: vao.estimator,
+            ao_method: AoMethod::Vao(vao.estimator),
             ao_radius: vao.radius,
             ao_field: FieldKind::default(),
             ao_variance: vao.variance,
@@ -82,12 +83,17 @@ const AO_METHOD: ParamSpec = ParamSpec {
                 name: "exact",
                 doc: "Count the voxels in every ball: slow, CPU only, the reference",
             },
+            Choice {
+                name: "sweep",
+                doc: "Visibility: the mean transmittance over all directions, in eight sweeps \
+                      at any range (CPU); ao_radius and ao_field do not apply",
+            },
         ],
     },
 };
 const AO_RADIUS: ParamSpec = ParamSpec {
     key: "ao_radius",
-    doc: "Tangent-sphere radius in voxels",
+    doc: "Tangent-sphere radius in voxels (VAO's estimators)",
     kind: ParamKind::Int {
         range: Range::closed(1.0, MAX_RADIUS as f64),
     },
@@ -151,13 +157,19 @@ impl AoParams {
         }
     }
 
-    /// The VAO volume's parameters (the variance too when opacity modulation needs it).
-    pub fn vao(&self) -> VaoParams {
-        VaoParams {
+    /// The AO volume's parameters (the variance too when opacity modulation needs it).
+    pub fn ao_volume(&self) -> AoVolumeParams {
+        AoVolumeParams {
+            method: self.ao_method,
             radius: self.ao_radius,
-            estimator: self.ao_method,
+            field: self.ao_field,
             variance: self.ao_variance || self.opacity_modulation,
         }
+    }
+
+    /// VAO's parameters, for a VAO estimator.
+    pub fn vao(&self) -> Option<VaoParams> {
+        self.ao_volume().vao()
     }
 }
 
@@ -198,13 +210,26 @@ impl RenderMethod for AoParams {
                 "specular, shininess and normal_threshold shade direct light: not with direct = false",
             ));
         }
-        if self.ao_variance && self.ao_method == Estimator::Exact {
-            return Err(
-                AO_VARIANCE.error("the exact estimator counts voxels and computes no variance")
-            );
+        match self.ao_method {
+            AoMethod::Vao(Estimator::Exact) if self.ao_variance => {
+                return Err(
+                    AO_VARIANCE.error("the exact estimator counts voxels and computes no variance")
+                );
+            }
+            AoMethod::Sweep if self.ao_field != FieldKind::Extinction => {
+                return Err(AO_FIELD.error(
+                    "the sweep's visibility is a transmittance: it reads the extinction only",
+                ));
+            }
+            AoMethod::Sweep if self.ao_variance || self.opacity_modulation => {
+                return Err(AO_VARIANCE.error(
+                    "the sweep computes no local variance (nor opacity modulation from it)",
+                ));
+            }
+            _ => {}
         }
         self.raycast().validate()?;
-        self.vao().validate()?;
+        self.ao_volume().validate()?;
         Ok(self)
     }
 
@@ -217,8 +242,13 @@ impl RenderMethod for AoParams {
 /// the grids are the openness and, if asked for, the local variance.
 pub fn render(input: &MethodInput, params: &AoParams) -> Result<Rendered> {
     let (compute, progress) = (input.compute, input.progress);
-    let field = ScalarField::new(input.volume, input.classification, params.ao_field)?;
-    let ao = vao::ao_volume(compute, &field, &params.vao(), progress)?;
+    let ao = ao_volumes::ao_volume(
+        compute,
+        input.volume,
+        input.classification,
+        &params.ao_volume(),
+        progress,
+    )?;
     let opacity = match (&ao.variance, params.opacity_modulation) {
         (Some(variance), true) => Some(vao::opacity_modulation(variance, params.variance_max)?),
         _ => None,

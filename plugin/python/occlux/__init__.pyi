@@ -294,7 +294,7 @@ def export(
 
 def ao_volume(
     scene: Scene,
-    method: Literal["cdf", "gauss", "gauss-exact", "penner", "exact"] = "cdf",
+    method: Literal["cdf", "gauss", "gauss-exact", "penner", "exact", "sweep"] = "cdf",
     radius: int = 10,
     field: Literal["extinction", "value"] = "extinction",
     variance: bool = False,

@@ -1,0 +1,270 @@
+//! CPU twin of the sweep: one sequential pass per octant over a grid padded by one voxel of
+//! empty space (so no step needs a bounds check), rows of contiguous memory; the eight octants
+//! run in parallel (rayon).
+//!
+//! Within a row the six steps that leave it read rows already swept, so their sum is a
+//! vectorisable loop over the row; the step along the row itself is a first-order recurrence,
+//! swept in order.
+
+use super::{Stencil, STEPS};
+use crate::error::{Error, Result};
+use crate::progress::Progress;
+use crate::volume::Volume;
+use rayon::prelude::*;
+use std::sync::atomic::{AtomicU64, Ordering};
+
+/// A grid with one voxel of padding on every side, x fastest.
+struct Padded {
+    dims: [usize; 3],
+    values: Vec<f32>,
+}
+
+impl Padded {
+    fn new(dims: [usize; 3], fill: f32) -> Self {
+        let [nx, ny, nz] = dims;
+        Self {
+            dims,
+            values: vec![fill; (nx + 2) * (ny + 2) * (nz + 2)],
+        }
+    }
+
+    /// Index of voxel (i, j, k) of the unpadded grid, each shifted by one.
+    #[inline]
+    fn index(&self, i: usize, j: usize, k: usize) -> usize {
+        let [nx, ny, _] = self.dims;
+        (i + 1) + (nx + 2) * ((j + 1) + (ny + 2) * (k + 1))
+    }
+
+    /// Index offset of a step (dx, dy, dz).
+    fn offset(&self, step: [i32; 3]) -> isize {
+        let [nx, ny, _] = self.dims;
+        let (px, py) = ((nx + 2) as isize, (ny + 2) as isize);
+        step[0] as isize + px * (step[1] as isize + py * step[2] as isize)
+    }
+}
+
+/// The visibility volume of `extinction` (sigma_t per world unit at each voxel centre): the
+/// mean of the eight octant visibilities, on the same grid. `progress` counts octants.
+pub fn visibility(extinction: &Volume, progress: &dyn Progress) -> Result<Volume> {
+    let stencil = Stencil::new(extinction.spacing())?;
+    if extinction
+        .values()
+        .iter()
+        .any(|s| !(s.is_finite() && *s >= 0.0))
+    {
+        return Err(Error::Volume(
+            "the sweep needs a finite, non-negative extinction at every voxel".into(),
+        ));
+    }
+    let dims = extinction.dims();
+    let halves = HalfSteps::new(extinction, &stencil);
+    let done = AtomicU64::new(0);
+    let octants: Vec<[i32; 3]> = (0..8)
+        .map(|o| {
+            [
+                1 - 2 * (o & 1),
+                1 - 2 * ((o >> 1) & 1),
+                1 - 2 * ((o >> 2) & 1),
+            ]
+        })
+        .collect();
+    let sum = octants
+        .par_iter()
+        .map(|&signs| {
+            if progress.cancelled() {
+                return Err(Error::Cancelled);
+            }
+            let v = sweep_octant(dims, &halves, &stencil, signs);
+            progress.update(done.fetch_add(1, Ordering::Relaxed) + 1, 8);
+            Ok(v)
+        })
+        .try_reduce_with(|mut a, b| {
+            a.values
+                .iter_mut()
+                .zip(&b.values)
+                .for_each(|(x, y)| *x += y);
+            Ok(a)
+        })
+        .unwrap_or_else(|| Err(Error::Volume("no octants".into())))?;
+    let [nx, ny, nz] = dims;
+    let mut values = Vec::with_capacity(nx * ny * nz);
+    for k in 0..nz {
+        for j in 0..ny {
+            let start = sum.index(0, j, k);
+            values.extend(
+                sum.values[start..start + nx]
+                    .iter()
+                    .map(|v| (v / 8.0).clamp(0.0, 1.0)),
+            );
+        }
+    }
+    Volume::new(dims, extinction.spacing(), extinction.origin(), values)
+}
+
+/// exp(-sigma_t |n| / 2) per voxel for each distinct step length (a cubic grid has three:
+/// faces, edges, the corner), padded with 1 (empty space): the transmittance over half a step.
+struct HalfSteps {
+    grids: Vec<Padded>,
+    /// The grid of each of the seven steps.
+    of_step: [usize; 7],
+}
+
+impl HalfSteps {
+    fn new(extinction: &Volume, stencil: &Stencil) -> Self {
+        let [nx, ny, nz] = extinction.dims();
+        let mut lengths: Vec<f32> = Vec::new();
+        let of_step = stencil.lengths.map(|l| {
+            lengths.iter().position(|&m| m == l).unwrap_or_else(|| {
+                lengths.push(l);
+                lengths.len() - 1
+            })
+        });
+        let grids = lengths
+            .par_iter()
+            .map(|&length| {
+                let mut grid = Padded::new([nx, ny, nz], 1.0);
+                for k in 0..nz {
+                    for j in 0..ny {
+                        let start = grid.index(0, j, k);
+                        let row = &extinction.values()[(j + ny * k) * nx..][..nx];
+                        for (t, &sigma) in grid.values[start..start + nx].iter_mut().zip(row) {
+                            *t = (-0.5 * sigma * length).exp();
+                        }
+                    }
+                }
+                grid
+            })
+            .collect();
+        Self { grids, of_step }
+    }
+
+    fn of(&self, step: usize) -> &[f32] {
+        &self.grids[self.of_step[step]].values
+    }
+}
+
+/// V_s for the octant of `signs` (each +1 or -1), padded with 1.
+fn sweep_octant(
+    dims: [usize; 3],
+    halves: &HalfSteps,
+    stencil: &Stencil,
+    signs: [i32; 3],
+) -> Padded {
+    let [nx, ny, nz] = dims;
+    let mut v = Padded::new(dims, 1.0);
+    let steps = STEPS.map(|s| [s[0] * signs[0], s[1] * signs[1], s[2] * signs[2]]);
+    let offsets = steps.map(|s| v.offset(s));
+    // Rows are swept away from the light's side: descending where the octant looks up an axis.
+    let order = |n: usize, sign: i32| -> Box<dyn Iterator<Item = usize>> {
+        if sign > 0 {
+            Box::new((0..n).rev())
+        } else {
+            Box::new(0..n)
+        }
+    };
+    let mut off_row = vec![0.0f32; nx];
+    let mut along = vec![0.0f32; nx];
+    for k in order(nz, signs[2]) {
+        for j in order(ny, signs[1]) {
+            let start = v.index(0, j, k);
+            off_row.fill(0.0);
+            // Steps 1..7 leave the row: their rows are already swept.
+            for (s, &offset) in offsets.iter().enumerate().skip(1) {
+                let weight = stencil.weights[s];
+                let half = halves.of(s);
+                let from = (start as isize + offset) as usize;
+                let here = &half[start..start + nx];
+                let there = &half[from..from + nx];
+                let seen = &v.values[from..from + nx];
+                for (acc, ((a, b), w)) in off_row.iter_mut().zip(here.iter().zip(there).zip(seen)) {
+                    *acc += weight * a * b * w;
+                }
+            }
+            // Step 0 stays in the row: V(i) = off(i) + w0 tau0(i) V(i + sx), in order.
+            let half = halves.of(0);
+            let from = (start as isize + offsets[0]) as usize;
+            for ((t, a), b) in along
+                .iter_mut()
+                .zip(&half[start..start + nx])
+                .zip(&half[from..from + nx])
+            {
+                *t = stencil.weights[0] * a * b;
+            }
+            let row = &mut v.values[start - 1..start + nx + 1];
+            if signs[0] > 0 {
+                for i in (0..nx).rev() {
+                    row[i + 1] = off_row[i] + along[i] * row[i + 2];
+                }
+            } else {
+                for i in 0..nx {
+                    row[i + 1] = off_row[i] + along[i] * row[i];
+                }
+            }
+        }
+    }
+    v
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::progress::NoProgress;
+    use glam::Vec3;
+
+    fn uniform(dims: [usize; 3], sigma: f32) -> Volume {
+        let n = dims.iter().product();
+        Volume::new(dims, Vec3::ONE, Vec3::ZERO, vec![sigma; n]).unwrap()
+    }
+
+    #[test]
+    fn empty_space_is_fully_visible() {
+        let v = visibility(&uniform([5, 4, 3], 0.0), &NoProgress).unwrap();
+        assert!(v.values().iter().all(|&x| (x - 1.0).abs() < 1e-6));
+    }
+
+    #[test]
+    fn a_single_voxel_sees_out_through_its_own_half_steps() {
+        // One voxel of extinction s: every step out crosses half its length in matter.
+        let sigma = 0.7;
+        let s = Stencil::new(Vec3::ONE).unwrap();
+        let want: f32 = s
+            .weights
+            .iter()
+            .zip(s.lengths)
+            .map(|(w, l)| w * (-0.5 * sigma * l).exp())
+            .sum();
+        let v = visibility(&uniform([1, 1, 1], sigma), &NoProgress).unwrap();
+        assert!(
+            (v.values()[0] - want).abs() < 1e-6,
+            "{} vs {want}",
+            v.values()[0]
+        );
+    }
+
+    #[test]
+    fn deeper_voxels_see_less_and_symmetry_holds() {
+        let v = visibility(&uniform([9, 9, 9], 0.5), &NoProgress).unwrap();
+        let centre = v.at(4, 4, 4);
+        assert!(centre < v.at(1, 4, 4) && v.at(1, 4, 4) < v.at(0, 4, 4));
+        // The cube's symmetries: mirrored and permuted voxels see the same.
+        for (a, b) in [
+            ((1, 2, 3), (7, 2, 3)),
+            ((1, 2, 3), (3, 1, 2)),
+            ((0, 0, 0), (8, 8, 8)),
+        ] {
+            let (x, y) = (v.at(a.0, a.1, a.2), v.at(b.0, b.1, b.2));
+            assert!((x - y).abs() < 1e-5, "{a:?} {x} vs {b:?} {y}");
+        }
+    }
+
+    #[test]
+    fn bad_extinction_is_refused() {
+        let mut values = vec![0.0; 8];
+        values[3] = f32::NAN;
+        let v = Volume::new([2, 2, 2], Vec3::ONE, Vec3::ZERO, values);
+        // Volumes refuse NaN themselves; negative extinction is the sweep's to refuse.
+        assert!(v.is_err());
+        let negative = Volume::new([2, 2, 2], Vec3::ONE, Vec3::ZERO, vec![-1.0; 8]).unwrap();
+        assert!(visibility(&negative, &NoProgress).is_err());
+    }
+}
