@@ -72,21 +72,7 @@ pub fn reference(
     volume: Option<&PyVolume>,
     progress: Option<Py<PyAny>>,
 ) -> PyResult<PyReferenceResult> {
-    let estimator = match estimator {
-        "ambient" => Estimator::Ambient,
-        "cone" => Estimator::Cone {
-            aperture: aperture_deg.to_radians(),
-        },
-        "single" => Estimator::Single,
-        "multiple" => Estimator::Multiple { bounces },
-        other => {
-            return Err(unknown_choice(
-                "estimator",
-                other,
-                &["ambient", "cone", "single", "multiple"],
-            ))
-        }
-    };
+    let estimator = estimator_named(estimator, bounces, aperture_deg)?;
     let params = ReferenceParams {
         estimator,
         spp,
@@ -107,4 +93,24 @@ pub fn reference(
         render_reference(&input, report)
     })?;
     Ok(PyReferenceResult { image })
+}
+
+/// The estimator called `name` ("ambient", "cone", "single", "multiple") with its own
+/// parameter: `bounces` for "multiple", the cone's half-angle for "cone".
+pub(crate) fn estimator_named(name: &str, bounces: u32, aperture_deg: f32) -> PyResult<Estimator> {
+    Ok(match name {
+        "ambient" => Estimator::Ambient,
+        "cone" => Estimator::Cone {
+            aperture: aperture_deg.to_radians(),
+        },
+        "single" => Estimator::Single,
+        "multiple" => Estimator::Multiple { bounces },
+        other => {
+            return Err(unknown_choice(
+                "estimator",
+                other,
+                &["ambient", "cone", "single", "multiple"],
+            ))
+        }
+    })
 }

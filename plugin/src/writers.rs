@@ -4,14 +4,15 @@
 //! (`occlux.write_reference`). Each writes a temporary file beside the destination and renames
 //! it into place (src/export/atomic.rs).
 
+use crate::reference::estimator_named;
 use crate::scene::PyScene;
-use crate::{py_err, unknown_choice, OccluxError};
+use crate::{py_err, OccluxError};
 use numpy::{PyReadonlyArray3, PyReadonlyArrayDyn, PyUntypedArrayMethods};
 use occlux::export::atomic::write_bytes_atomic;
 use occlux::export::exr::{write_exr, ExrLayer, Precision};
 use occlux::export::png::write_png_preview;
 use occlux::pipeline;
-use occlux::render::reference::{Estimator, ReferenceImage, ReferenceParams};
+use occlux::render::reference::{ReferenceImage, ReferenceParams};
 use occlux::render::RenderImage;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
@@ -192,21 +193,7 @@ pub fn write_reference(
             "stem '{stem}' must be a plain file name"
         )));
     }
-    let estimator = match estimator {
-        "ambient" => Estimator::Ambient,
-        "cone" => Estimator::Cone {
-            aperture: aperture_deg.to_radians(),
-        },
-        "single" => Estimator::Single,
-        "multiple" => Estimator::Multiple { bounces },
-        other => {
-            return Err(unknown_choice(
-                "estimator",
-                other,
-                &["ambient", "cone", "single", "multiple"],
-            ))
-        }
-    };
+    let estimator = estimator_named(estimator, bounces, aperture_deg)?;
     let mean: PyReadonlyArray3<f32> = as_array(&result.getattr("mean")?, "float32")?.extract()?;
     let stderr: PyReadonlyArray3<f32> =
         as_array(&result.getattr("stderr")?, "float32")?.extract()?;
