@@ -4,7 +4,7 @@ use clap::{Parser, Subcommand};
 use occlux::ao::commands::{ao_reference_volume, ao_volume};
 use occlux::ao::reference::AoVariant;
 use occlux::ao::AoVolumeParams;
-use occlux::eval::{bench, dos_accuracy, vao_accuracy, vao_bench};
+use occlux::eval::{bench, dos_accuracy, sweep_accuracy, vao_accuracy, vao_bench};
 use occlux::export::exr::Precision;
 use occlux::export::vdb::{Compression, VdbOptions};
 use occlux::gpu::DeviceChoice;
@@ -93,6 +93,10 @@ enum Command {
     /// Directional occlusion shading against the cone-phase and ambient Monte Carlo references
     /// (relative RMSE over the volume's pixels) for scenes x theta x n; table and JSON.
     DosAccuracy(dos_accuracy::AccuracyArgs),
+    /// AO-shaded DVR with the occlusion sweep's visibility under ambient light, against the
+    /// ambient Monte Carlo reference or a Cycles render (relative RMSE over the volume's
+    /// pixels), with the time of each stage; table and JSON.
+    SweepAccuracy(sweep_accuracy::SweepAccuracyArgs),
     /// Monte Carlo reference of the scene (CPU): OUT/STEM-ESTIMATOR.exr (float32 layers beauty
     /// = per-pixel mean, stderr = its standard error) and a PNG preview.
     Reference {
@@ -293,6 +297,7 @@ fn run(cli: Cli) -> occlux::Result<()> {
         Command::BenchAo(args) => vao_bench::run(&args, quiet),
         Command::AoAccuracy(args) => vao_accuracy::run(&args, quiet),
         Command::DosAccuracy(args) => dos_accuracy::run(&args, quiet),
+        Command::SweepAccuracy(args) => sweep_accuracy::run(&args, quiet),
         Command::Reference {
             scene,
             estimator,

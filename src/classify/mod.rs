@@ -17,6 +17,7 @@ pub use tf2d::{TransferFunction2D, Widget, WidgetShape};
 
 use crate::error::{Error, Result};
 use crate::volume::Volume;
+use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 /// How control-point and widget value positions are expressed.
@@ -110,6 +111,15 @@ impl Classification {
     pub fn extinction(&self, volume: &Volume) -> Result<Volume> {
         let lut = self.bake(volume);
         let uses_gradient = self.uses_gradient();
+        if !uses_gradient {
+            // A 1D table needs only each voxel's own value: one contiguous, parallel map.
+            let values = volume
+                .values()
+                .par_iter()
+                .map(|&v| lut.lookup(v, 0.0).sigma_t)
+                .collect();
+            return Volume::new(volume.dims(), volume.spacing(), volume.origin(), values);
+        }
         let (origin, spacing) = (volume.origin(), volume.spacing());
         Volume::from_fn(volume.dims(), spacing, origin, |p| {
             let c = ((p - origin) / spacing).round();

@@ -167,18 +167,26 @@ fn sweep_octant(
     for k in order(nz, signs[2]) {
         for j in order(ny, signs[1]) {
             let start = v.index(0, j, k);
-            off_row.fill(0.0);
-            // Steps 1..7 leave the row: their rows are already swept.
-            for (s, &offset) in offsets.iter().enumerate().skip(1) {
-                let weight = stencil.weights[s];
+            // Steps 1..7 leave the row: their rows are already swept. One pass over the row
+            // sums them in step order (as the GPU twin does).
+            let rows: [(&[f32], &[f32], &[f32]); 6] = std::array::from_fn(|n| {
+                let s = n + 1;
                 let half = halves.of(s);
-                let from = (start as isize + offset) as usize;
-                let here = &half[start..start + nx];
-                let there = &half[from..from + nx];
-                let seen = &v.values[from..from + nx];
-                for (acc, ((a, b), w)) in off_row.iter_mut().zip(here.iter().zip(there).zip(seen)) {
-                    *acc += weight * a * b * w;
+                let from = (start as isize + offsets[s]) as usize;
+                (
+                    &half[start..start + nx],
+                    &half[from..from + nx],
+                    &v.values[from..from + nx],
+                )
+            });
+            let w: [f32; 6] = std::array::from_fn(|n| stencil.weights[n + 1]);
+            for (i, acc) in off_row.iter_mut().enumerate() {
+                let mut sum = 0.0;
+                for n in 0..6 {
+                    let (here, there, seen) = rows[n];
+                    sum += w[n] * here[i] * there[i] * seen[i];
                 }
+                *acc = sum;
             }
             // Step 0 stays in the row: V(i) = off(i) + w0 tau0(i) V(i + sx), in order.
             let half = halves.of(0);
