@@ -385,6 +385,27 @@ def test_ao_volume_refuses_bad_arguments_and_cancels() -> None:
         occlux.ao_volume(scene, radius=3, device="cpu", progress=lambda done, total: False)
 
 
+def test_ao_volume_by_sweep_is_a_visibility_of_the_extinction() -> None:
+    scene = occlux.Scene.from_toml(scene_text())
+    volume = scene.load_volume()
+    swept = occlux.ao_volume(scene, method="sweep", device="cpu")
+    assert sorted(swept) == ["ao"]
+    ao = swept["ao"].values
+    extinction = scene.classification.extinction(volume).values
+    # Where there is no matter light is lost only further out; inside matter, visibility drops.
+    assert 0.0 <= ao.min() and ao.max() <= 1.0
+    assert ao[extinction > 0].mean() < ao[extinction == 0].mean()
+    # The sweep reads the extinction and computes no variance.
+    with pytest.raises(occlux.OccluxError, match="field"):
+        occlux.ao_volume(scene, method="sweep", field="value", device="cpu")
+    with pytest.raises(occlux.OccluxError, match="variance"):
+        occlux.ao_volume(scene, method="sweep", variance=True, device="cpu")
+    # The registry offers it to every reader (the add-on's Compute AO among them).
+    entry = next(m for m in occlux.methods() if m["name"] == "ao")
+    ao_method = next(p for p in entry["params"] if p["key"] == "ao_method")
+    assert "sweep" in [o["name"] for o in ao_method["options"]]
+
+
 def test_dos_renders_expose_the_occlusion_layer_and_other_methods_none() -> None:
     # DOS is lit by ambient light only: the scene up to its directional light, then DOS.
     ambient_only = scene_text(size=(24, 20)).split('[[lights]]\ntype = "directional"')[0]
