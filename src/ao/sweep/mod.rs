@@ -34,6 +34,7 @@
 //! any range.
 
 pub mod cpu;
+pub mod sdf;
 
 use crate::error::{Error, Result};
 use glam::{DVec3, Vec3};

@@ -1,0 +1,474 @@
+//! Signed distance to an iso-surface by fast sweeping (Zhao 2005, "A fast sweeping method for
+//! Eikonal equations", Math. Comp. 74): the first step of occlusion sweeping.
+//!
+//! Convention: the distance is in world units, **negative inside** (where the value is greater
+//! than the iso-value) and positive outside (value at or below it), as OpenVDB level sets are.
+//!
+//! The method:
+//! 1. Initialization. A voxel whose neighbour along an axis lies on the other side of the
+//!    iso-value is next to the surface: along that axis the surface crosses the edge between
+//!    the two centres at the fraction t = (iso - v0) / (v1 - v0) of it, at t h_i from the voxel
+//!    (the nearer crossing where both neighbours cross). Taking the surface as the plane
+//!    through the crossings of the axes that have one, the voxel's distance is
+//!    d = 1 / sqrt(sum_i 1 / d_i^2): exact for a plane whatever the spacing. These voxels are
+//!    fixed; all others start unset (+infinity, internally only).
+//! 2. Gauss-Seidel sweeps in the eight diagonal orders (each axis ascending or descending),
+//!    rows along x so the inner loop runs over contiguous memory. At a voxel, Zhao's update of
+//!    the Godunov discretization of |grad d| = 1 with spacing (hx, hy, hz): a_i is the smaller
+//!    neighbour along axis i; sorted ascending, the 1D solution a_1 + h_1 is taken if it is
+//!    at most a_2, else the 2D solution of sum_{i<=2} (u - a_i)^2 / h_i^2 = 1 if at most a_3,
+//!    else the 3D one; the voxel keeps the smaller of its value and u (Zhao's Eq. 1 and (2.4)).
+//! 3. A round is the eight sweeps; rounds repeat until the largest change of any voxel in a
+//!    round is below the tolerance (world units), or the iteration limit is reached
+//!    ([`SdfResult::converged`] says which). Values only decrease, so the change is exactly
+//!    zero once the discrete solution is reached; Zhao shows a few rounds suffice (the first
+//!    round sets every voxel, since any voxel is reached from the surface in one of the eight
+//!    orders, and on a grid with no obstacles the second round typically only confirms it).
+//!
+//! Accuracy: first order (measured in tests/sdf.rs against the exact distance of a sphere of
+//! radius 15 h: under 0.4 h within 3 h of the surface; the scheme overestimates along the
+//! diagonals, increasingly with the distance, to 0.66 h at 27 h outside and 1.0 h at the
+//! centre, where the distance has its kink; RMS 0.28 h over a 48^3 grid). Small features
+//! (thin shells, rods) spread like point sources and give the largest errors far from them.
+//!
+//! Speed: one thread; the rows' neighbour minima across y and z are plain loops over
+//! contiguous memory, the update along the row is sequential (Gauss-Seidel). About 21 ns per
+//! voxel update here, so three rounds (24 sweeps) of a 250^3 grid take about 8 s.
+//!
+//! Bad input: a volume that never crosses the iso-value (including a constant one) has no
+//! surface and so no distance: that is an error, not a grid of infinities. The output never
+//! holds NaN or infinity.
+
+use crate::error::{Error, Result};
+use crate::progress::Progress;
+use crate::volume::Volume;
+
+/// Parameters of the signed distance.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SdfParams {
+    /// The iso-value whose surface the distance is measured to; voxels with a value above it
+    /// are inside (negative distance). Default 0.5, the middle of a [0, 1] volume such as the
+    /// phantoms and classified opacity. Must be finite.
+    pub iso: f32,
+    /// Stop when the largest change of any voxel in a round of eight sweeps is below this, in
+    /// world units. Default 1e-6: fast sweeping reaches its discrete solution exactly (the
+    /// change drops to zero) in a few rounds, so the default asks for that. Must be positive
+    /// and finite.
+    pub tolerance: f32,
+    /// Most rounds of eight sweeps. Default 16 (Zhao: a few rounds are enough on grids without
+    /// obstacles; the sweep reports when it stopped here unconverged). Must be at least 1.
+    pub max_iterations: u32,
+}
+
+impl Default for SdfParams {
+    fn default() -> Self {
+        Self {
+            iso: 0.5,
+            tolerance: 1e-6,
+            max_iterations: 16,
+        }
+    }
+}
+
+impl SdfParams {
+    /// Checks the ranges above; errors name the parameter (`sdf.iso`, `sdf.tolerance`,
+    /// `sdf.max_iterations`).
+    pub fn validate(&self) -> Result<()> {
+        if !self.iso.is_finite() {
+            return Err(Error::param(
+                "sdf.iso",
+                format!("the iso-value must be finite, got {}", self.iso),
+            ));
+        }
+        if !(self.tolerance.is_finite() && self.tolerance > 0.0) {
+            return Err(Error::param(
+                "sdf.tolerance",
+                format!(
+                    "the tolerance must be a positive, finite distance in world units, got {}",
+                    self.tolerance
+                ),
+            ));
+        }
+        if self.max_iterations < 1 {
+            return Err(Error::param(
+                "sdf.max_iterations",
+                "at least one round of eight sweeps is needed, got 0",
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// The signed distance and how the sweeps ended.
+#[derive(Clone, Debug)]
+pub struct SdfResult {
+    /// Signed distance in world units on the input's grid (same dims, spacing and origin):
+    /// negative inside (value > iso), positive outside. Always finite.
+    pub sdf: Volume,
+    /// Rounds of eight sweeps done.
+    pub iterations: u32,
+    /// Largest change of any voxel in the last round, in world units; infinite when only one
+    /// round ran (it set voxels that had no value yet).
+    pub max_change: f32,
+    /// Whether `max_change` fell below the tolerance (else the iteration limit stopped it).
+    pub converged: bool,
+}
+
+/// The signed distance to the `params.iso` surface of `volume`, by fast sweeping.
+/// `progress` counts sweeps (eight per round) out of `8 * max_iterations`; cancelling stops
+/// between sweeps with [`Error::Cancelled`].
+pub fn signed_distance(
+    volume: &Volume,
+    params: &SdfParams,
+    progress: &dyn Progress,
+) -> Result<SdfResult> {
+    params.validate()?;
+    let spacing = volume.spacing();
+    if !(spacing.is_finite() && spacing.min_element() > 0.0) {
+        return Err(Error::Volume(format!(
+            "spacing {spacing} must be positive and finite for the signed distance"
+        )));
+    }
+    let dims = volume.dims();
+    let h = spacing.to_array();
+    let mut grid = Grid::new(dims);
+    let fixed = initialize(volume, params.iso, h, &mut grid);
+    if fixed == 0 {
+        let (lo, hi) = volume.value_range();
+        return Err(Error::Volume(format!(
+            "the volume never crosses the iso-value {}: its values lie in [{lo}, {hi}], so there \
+             is no surface to measure a distance to",
+            params.iso
+        )));
+    }
+
+    let weights = h.map(|x| 1.0 / (x * x));
+    let total = 8 * params.max_iterations as u64;
+    let mut iterations = 0;
+    let mut max_change = f32::INFINITY;
+    let mut converged = false;
+    while iterations < params.max_iterations {
+        let mut change = 0.0f32;
+        for order in 0..8 {
+            if progress.cancelled() {
+                return Err(Error::Cancelled);
+            }
+            let signs = [order & 1 == 0, order & 2 == 0, order & 4 == 0];
+            change = change.max(grid.sweep(signs, h, weights));
+            progress.update(8 * iterations as u64 + order as u64 + 1, total);
+        }
+        iterations += 1;
+        max_change = change;
+        if change < params.tolerance {
+            converged = true;
+            break;
+        }
+    }
+    progress.update(total, total);
+
+    // Sign and unpad. Every voxel was set in the first round (the grid is connected), but a
+    // value that is somehow still unset is an error, never an infinity in the output.
+    let [nx, ny, nz] = dims;
+    let values = volume.values();
+    let mut out = Vec::with_capacity(values.len());
+    for k in 0..nz {
+        for j in 0..ny {
+            let start = grid.index(0, j, k);
+            let row = &values[(j + ny * k) * nx..][..nx];
+            out.extend(grid.u[start..start + nx].iter().zip(row).map(|(&d, &v)| {
+                if v > params.iso {
+                    -d
+                } else {
+                    d
+                }
+            }));
+        }
+    }
+    if let Some(index) = out.iter().position(|d| !d.is_finite()) {
+        return Err(Error::Volume(format!(
+            "the signed distance at voxel {index} did not converge to a finite value"
+        )));
+    }
+    Ok(SdfResult {
+        sdf: Volume::new(dims, spacing, volume.origin(), out)?,
+        iterations,
+        max_change,
+        converged,
+    })
+}
+
+/// Unsigned distances on a grid padded by one voxel of +infinity on every side (so the
+/// neighbour minima need no bounds checks), x fastest, with the fixed (interface) voxels marked.
+struct Grid {
+    dims: [usize; 3],
+    u: Vec<f32>,
+    fixed: Vec<bool>,
+}
+
+impl Grid {
+    fn new(dims: [usize; 3]) -> Self {
+        let len = (dims[0] + 2) * (dims[1] + 2) * (dims[2] + 2);
+        Self {
+            dims,
+            u: vec![f32::INFINITY; len],
+            fixed: vec![false; len],
+        }
+    }
+
+    #[inline]
+    fn index(&self, i: usize, j: usize, k: usize) -> usize {
+        let [nx, ny, _] = self.dims;
+        (i + 1) + (nx + 2) * ((j + 1) + (ny + 2) * (k + 1))
+    }
+
+    /// One Gauss-Seidel sweep, each axis ascending where its sign is true; returns the largest
+    /// decrease of any voxel (infinite where a voxel got its first value).
+    fn sweep(&mut self, ascending: [bool; 3], h: [f32; 3], w: [f32; 3]) -> f32 {
+        let [nx, ny, nz] = self.dims;
+        let sy = nx + 2;
+        let sz = sy * (ny + 2);
+        let mut change = 0.0f32;
+        // Neighbour minima across y and z for one row: those rows are not written while this
+        // row is swept, so this part runs as plain loops over contiguous memory.
+        let mut ay = vec![0.0f32; nx];
+        let mut az = vec![0.0f32; nx];
+        for kk in 0..nz {
+            let k = if ascending[2] { kk } else { nz - 1 - kk };
+            for jj in 0..ny {
+                let j = if ascending[1] { jj } else { ny - 1 - jj };
+                let start = self.index(0, j, k);
+                {
+                    let u = &self.u;
+                    let (below, above) = (&u[start - sy..][..nx], &u[start + sy..][..nx]);
+                    for ((a, &p), &q) in ay.iter_mut().zip(below).zip(above) {
+                        *a = p.min(q);
+                    }
+                    let (below, above) = (&u[start - sz..][..nx], &u[start + sz..][..nx]);
+                    for ((a, &p), &q) in az.iter_mut().zip(below).zip(above) {
+                        *a = p.min(q);
+                    }
+                }
+                // Along the row: each voxel reads the one just updated (Gauss-Seidel).
+                let row = &mut self.u[start - 1..start + nx + 1];
+                let fixed = &self.fixed[start..start + nx];
+                let mut visit = |i: usize| {
+                    if fixed[i] {
+                        return;
+                    }
+                    let ax = row[i].min(row[i + 2]);
+                    let old = row[i + 1];
+                    let new = solve([ax, ay[i], az[i]], h, w);
+                    if new < old {
+                        row[i + 1] = new;
+                        change = change.max(old - new);
+                    }
+                };
+                if ascending[0] {
+                    (0..nx).for_each(&mut visit);
+                } else {
+                    (0..nx).rev().for_each(&mut visit);
+                }
+            }
+        }
+        change
+    }
+}
+
+/// Zhao's local solver: the u >= min a with sum_i max(u - a_i, 0)^2 / h_i^2 = 1, the Godunov
+/// upwind discretization of |grad u| = 1. `a` holds the smaller neighbour along each axis
+/// (+infinity where none is set), `h` the spacing, `w` = 1 / h^2. Never NaN: an infinite
+/// a_i is never subtracted (the candidate is accepted before it is reached).
+#[inline]
+pub fn solve(a: [f32; 3], h: [f32; 3], w: [f32; 3]) -> f32 {
+    // Sort the three (a, h, w) by a.
+    let mut p = [(a[0], h[0], w[0]), (a[1], h[1], w[1]), (a[2], h[2], w[2])];
+    if p[0].0 > p[1].0 {
+        p.swap(0, 1);
+    }
+    if p[1].0 > p[2].0 {
+        p.swap(1, 2);
+    }
+    if p[0].0 > p[1].0 {
+        p.swap(0, 1);
+    }
+    let [(a0, h0, w0), (a1, _, w1), (a2, _, w2)] = p;
+    // 1D: the nearest neighbour alone.
+    let u = a0 + h0;
+    if u <= a1 {
+        return u;
+    }
+    // 2D, relative to a0 for precision: sum w_i (v - b_i)^2 = 1, v = u - a0, b_i = a_i - a0;
+    // the discriminant by Lagrange's identity, A - w0 w1 b1^2, is at least w0 here (b1 < h0).
+    let b1 = a1 - a0;
+    let s = w0 + w1;
+    let disc = s - w0 * w1 * b1 * b1;
+    let u = a0 + (w1 * b1 + disc.max(0.0).sqrt()) / s;
+    if u <= a2 {
+        return u;
+    }
+    // 3D.
+    let b2 = a2 - a0;
+    let s = w0 + w1 + w2;
+    let d12 = b2 - b1;
+    let disc = s - (w0 * w1 * b1 * b1 + w0 * w2 * b2 * b2 + w1 * w2 * d12 * d12);
+    a0 + (w1 * b1 + w2 * b2 + disc.max(0.0).sqrt()) / s
+}
+
+/// Sets the voxels next to a sign change to their interpolated distance and marks them fixed;
+/// returns how many there are.
+fn initialize(volume: &Volume, iso: f32, h: [f32; 3], grid: &mut Grid) -> usize {
+    let [nx, ny, nz] = volume.dims();
+    let values = volume.values();
+    let strides = [1usize, nx, nx * ny];
+    let extents = [nx, ny, nz];
+    let iso = iso as f64;
+    let mut count = 0;
+    for k in 0..nz {
+        for j in 0..ny {
+            for i in 0..nx {
+                let at = [i, j, k];
+                let index = i + nx * (j + ny * k);
+                let v0 = values[index] as f64;
+                let inside = v0 > iso;
+                let mut inverse_sum = 0.0f64;
+                let mut touches = false;
+                let mut on_surface = false;
+                for axis in 0..3 {
+                    // Fraction of the edge to the nearer crossing along this axis.
+                    let mut t = f64::INFINITY;
+                    let stride = strides[axis];
+                    let mut consider = |other: usize| {
+                        let v1 = values[other] as f64;
+                        if (v1 > iso) != inside {
+                            // v0 and v1 differ (one is above iso, the other not): no 0/0.
+                            t = t.min(((iso - v0) / (v1 - v0)).clamp(0.0, 1.0));
+                        }
+                    };
+                    if at[axis] > 0 {
+                        consider(index - stride);
+                    }
+                    if at[axis] + 1 < extents[axis] {
+                        consider(index + stride);
+                    }
+                    if t.is_finite() {
+                        touches = true;
+                        let d = t * h[axis] as f64;
+                        if d <= 0.0 {
+                            on_surface = true;
+                        } else {
+                            inverse_sum += 1.0 / (d * d);
+                        }
+                    }
+                }
+                if touches {
+                    let d = if on_surface || !inverse_sum.is_finite() {
+                        0.0
+                    } else {
+                        (1.0 / inverse_sum.sqrt()) as f32
+                    };
+                    let g = grid.index(i, j, k);
+                    grid.u[g] = d;
+                    grid.fixed[g] = true;
+                    count += 1;
+                }
+            }
+        }
+    }
+    count
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::progress::NoProgress;
+    use glam::Vec3;
+
+    const ONE: [f32; 3] = [1.0; 3];
+
+    #[test]
+    fn sdf_solver_picks_1d_2d_3d() {
+        let inf = f32::INFINITY;
+        // 1D: one set neighbour.
+        assert_eq!(solve([2.0, inf, inf], ONE, ONE), 3.0);
+        assert_eq!(
+            solve([inf, inf, 0.5], [1.0, 1.0, 2.0], [1.0, 1.0, 0.25]),
+            2.5
+        );
+        // 2D: equal neighbours on two axes give a + h / sqrt(2).
+        let u = solve([1.0, 1.0, inf], ONE, ONE);
+        assert!((u - (1.0 + 0.5f32.sqrt())).abs() < 1e-6, "{u}");
+        // 3D: equal on all three give a + h / sqrt(3).
+        let u = solve([1.0, 1.0, 1.0], ONE, ONE);
+        assert!((u - (1.0 + 1.0 / 3f32.sqrt())).abs() < 1e-6, "{u}");
+        // Far apart: the 1D solution wins.
+        assert_eq!(solve([5.0, 1.0, 9.0], ONE, ONE), 2.0);
+        // Unset everywhere stays unset, without NaN.
+        assert_eq!(solve([inf; 3], ONE, ONE), inf);
+    }
+
+    #[test]
+    fn sdf_solver_exact_for_planes_with_anisotropic_spacing() {
+        // u(x) = n . x for a unit n: neighbours' values u - n_i h_i, and the update returns u.
+        let h = [1.0f32, 1.5, 2.0];
+        let w = h.map(|x| 1.0 / (x * x));
+        let n = Vec3::new(0.3, 0.5, 0.8).normalize();
+        let u = 10.0f32;
+        let a = [u - n.x * h[0], u - n.y * h[1], u - n.z * h[2]];
+        assert!((solve(a, h, w) - u).abs() < 1e-5, "{}", solve(a, h, w));
+    }
+
+    #[test]
+    fn sdf_params_validate() {
+        assert!(SdfParams::default().validate().is_ok());
+        let bad = [
+            SdfParams {
+                iso: f32::NAN,
+                ..Default::default()
+            },
+            SdfParams {
+                tolerance: 0.0,
+                ..Default::default()
+            },
+            SdfParams {
+                tolerance: f32::INFINITY,
+                ..Default::default()
+            },
+            SdfParams {
+                max_iterations: 0,
+                ..Default::default()
+            },
+        ];
+        for (p, key) in bad
+            .iter()
+            .zip(["sdf.iso", "sdf.tolerance", "sdf.tolerance", "sdf.max"])
+        {
+            let e = p.validate().unwrap_err().to_string();
+            assert!(e.contains(key), "{e}");
+        }
+    }
+
+    #[test]
+    fn sdf_plane_is_exact() {
+        // A plane z = 2.3 (value 10 - z; inside below): the distance is exact, with 1 x 1 x 2
+        // spacing too.
+        for spacing in [Vec3::ONE, Vec3::new(1.0, 1.0, 2.0)] {
+            let v = Volume::from_fn([6, 5, 8], spacing, Vec3::ZERO, |p| 10.0 - p.z).unwrap();
+            let r = signed_distance(
+                &v,
+                &SdfParams {
+                    iso: 10.0 - 2.3,
+                    ..Default::default()
+                },
+                &NoProgress,
+            )
+            .unwrap();
+            for k in 0..8 {
+                let want = k as f32 * spacing.z - 2.3;
+                for &d in &r.sdf.values()[k * 30..(k + 1) * 30] {
+                    assert!((d - want).abs() < 1e-5, "{d} vs {want}");
+                }
+            }
+            assert!(r.converged && r.iterations <= 2, "{r:?}");
+        }
+    }
+}
