@@ -148,7 +148,7 @@ enum Command {
     Ao {
         scene: PathBuf,
         /// VAO: cdf, gauss (Winitzki's erf), gauss-exact, penner, or exact (the voxel count:
-        /// slow); or sweep (the visibility, mean transmittance over all directions; CPU).
+        /// slow); or sweep (the visibility, mean transmittance over all directions).
         #[arg(long, default_value = "cdf")]
         method: String,
         /// Tangent-sphere radius in voxels (VAO).

@@ -14,7 +14,7 @@ use pyo3::types::PyDict;
 /// classification: `method` "cdf", "gauss", "gauss-exact", "penner" or "exact" (VAO; the
 /// voxel count is slow and always on the CPU) with tangent-sphere `radius` in voxels and
 /// `field` "extinction" or "value", or "sweep" (the visibility, the mean transmittance of the
-/// extinction over all directions, on the CPU). Returns {"ao": Volume (openness, 1 = unoccluded)} plus "ao_variance" when
+/// extinction over all directions). Returns {"ao": Volume (openness, 1 = unoccluded)} plus "ao_variance" when
 /// `variance` is true, on the volume's grid. `device` and `progress` as for `render`
 /// (returning False from `progress` cancels). The GIL is released while it computes.
 #[pyfunction]

@@ -1,6 +1,7 @@
 //! Ambient-occlusion volumes: per-voxel occlusion grids that renderers (and Blender, through
-//! VDB) shade with. `vao` computes them fast from local statistics (CPU and GPU twins); `sweep`
-//! computes the visibility, the mean transmittance over all directions, in eight sweeps (CPU);
+//! VDB) shade with. `vao` computes them fast from local statistics; `sweep` computes the
+//! visibility, the mean transmittance over all directions, in eight sweeps (both with CPU and
+//! GPU twins);
 //! `reference` holds the Monte Carlo references the fast methods are measured against.
 
 pub mod commands;
@@ -24,7 +25,7 @@ pub enum AoMethod {
     /// Openness from the local statistics of the tangent sphere (the VAO paper).
     Vao(Estimator),
     /// Visibility: the mean transmittance of the classified extinction over all directions,
-    /// by the occlusion sweep ([`sweep`]), at any range.
+    /// by the occlusion sweep ([`sweep`]), at any range; CPU and GPU twins.
     Sweep,
 }
 
@@ -42,10 +43,9 @@ impl AoMethod {
         }
     }
 
-    /// Whether it runs on the CPU whatever the device (the exact count, and the sweep, whose
-    /// GPU twin is not written yet).
+    /// Whether it runs on the CPU whatever the device (the exact count, a reference).
     pub fn cpu_only(self) -> bool {
-        matches!(self, AoMethod::Vao(Estimator::Exact) | AoMethod::Sweep)
+        self == AoMethod::Vao(Estimator::Exact)
     }
 }
 
@@ -120,7 +120,7 @@ impl AoVolumeParams {
 }
 
 /// The AO volume of a classified volume: `openness` (1 = unoccluded) on its grid, and the
-/// local variance when asked for. VAO runs on `compute`; the sweep on the CPU.
+/// local variance when asked for, on `compute` (VAO's exact count always on the CPU).
 pub fn ao_volume(
     compute: &Compute,
     volume: &Volume,
@@ -134,9 +134,12 @@ pub fn ao_volume(
             let field = ScalarField::new(volume, classification, params.field)?;
             vao::ao_volume(compute, &field, &vao, progress)
         }
-        None => Ok(AoVolume {
-            openness: sweep::cpu::visibility(&classification.extinction(volume)?, progress)?,
-            variance: None,
-        }),
+        None => {
+            let extinction = classification.extinction(volume)?;
+            Ok(AoVolume {
+                openness: sweep::visibility(compute, &extinction, progress)?,
+                variance: None,
+            })
+        }
     }
 }

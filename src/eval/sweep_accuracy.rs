@@ -39,7 +39,7 @@ pub struct SweepAccuracyArgs {
     /// Samples per pixel of the Monte Carlo reference.
     #[arg(long, default_value_t = 256)]
     pub spp: u32,
-    /// Where the ray caster runs (the sweep runs on the CPU).
+    /// Where the sweep and the ray caster run: auto picks a hardware GPU adapter if one opens.
     #[arg(long, value_enum, default_value = "auto")]
     pub device: DeviceChoice,
     #[arg(short, long, default_value = "occlux-sweep-accuracy.json")]
@@ -128,7 +128,7 @@ pub fn run(args: &SweepAccuracyArgs, quiet: bool) -> Result<()> {
         let extinction = scene.classification.extinction(&volume)?;
         let extinction_ms = started.elapsed().as_secs_f64() * 1e3;
         let started = Instant::now();
-        let visibility = ao::sweep::cpu::visibility(&extinction, &NoProgress)?;
+        let visibility = ao::sweep::visibility(&compute, &extinction, &NoProgress)?;
         let sweep_ms = started.elapsed().as_secs_f64() * 1e3;
         let lut = scene.classification.bake(&volume);
         let render_params = RaycastParams {

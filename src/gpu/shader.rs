@@ -16,6 +16,7 @@ const SOURCES: &[(&str, &str)] = &[
     ("classify.wgsl", include_str!("../../shaders/classify.wgsl")),
     ("dos.wgsl", include_str!("../../shaders/dos.wgsl")),
     ("raycast.wgsl", include_str!("../../shaders/raycast.wgsl")),
+    ("sweep.wgsl", include_str!("../../shaders/sweep.wgsl")),
     (
         "vao_stats.wgsl",
         include_str!("../../shaders/vao_stats.wgsl"),
@@ -216,11 +217,25 @@ pub fn bind_group(
     pipeline: &wgpu::ComputePipeline,
     resources: &[wgpu::BindingResource<'_>],
 ) -> Result<wgpu::BindGroup> {
-    let entries: Vec<wgpu::BindGroupEntry<'_>> = resources
+    let numbered: Vec<(u32, wgpu::BindingResource<'_>)> = resources
         .iter()
         .enumerate()
+        .map(|(binding, resource)| (binding as u32, resource.clone()))
+        .collect();
+    bind_group_at(ctx, pipeline, &numbered)
+}
+
+/// A bind group for group 0 of `pipeline`, binding each `(binding, resource)`: for an entry
+/// point of a shader with several, whose bindings are not numbered from 0 without gaps.
+pub fn bind_group_at(
+    ctx: &GpuContext,
+    pipeline: &wgpu::ComputePipeline,
+    resources: &[(u32, wgpu::BindingResource<'_>)],
+) -> Result<wgpu::BindGroup> {
+    let entries: Vec<wgpu::BindGroupEntry<'_>> = resources
+        .iter()
         .map(|(binding, resource)| wgpu::BindGroupEntry {
-            binding: binding as u32,
+            binding: *binding,
             resource: resource.clone(),
         })
         .collect();

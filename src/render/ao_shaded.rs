@@ -86,7 +86,7 @@ const AO_METHOD: ParamSpec = ParamSpec {
             Choice {
                 name: "sweep",
                 doc: "Visibility: the mean transmittance over all directions, in eight sweeps \
-                      at any range (CPU); ao_radius and ao_field do not apply",
+                      at any range; ao_radius and ao_field do not apply",
             },
         ],
     },

@@ -46,16 +46,7 @@ impl Padded {
 /// The visibility volume of `extinction` (sigma_t per world unit at each voxel centre): the
 /// mean of the eight octant visibilities, on the same grid. `progress` counts octants.
 pub fn visibility(extinction: &Volume, progress: &dyn Progress) -> Result<Volume> {
-    let stencil = Stencil::new(extinction.spacing())?;
-    if extinction
-        .values()
-        .iter()
-        .any(|s| !(s.is_finite() && *s >= 0.0))
-    {
-        return Err(Error::Volume(
-            "the sweep needs a finite, non-negative extinction at every voxel".into(),
-        ));
-    }
+    let stencil = super::validate(extinction)?;
     let dims = extinction.dims();
     let halves = HalfSteps::new(extinction, &stencil);
     let done = AtomicU64::new(0);

@@ -32,11 +32,18 @@
 //! Each V_s(x) depends on neighbours further along s only, so one pass in the grid's order
 //! (reversed along each axis where s is positive) computes it exactly: O(voxels) per octant, at
 //! any range.
+//!
+//! Twins: [`cpu`] sweeps rows in that order; [`gpu`] (shaders/sweep.wgsl) sweeps the
+//! anti-diagonal planes of all eight octants at once (in groups when one storage binding
+//! cannot hold all eight), one dispatch per plane (about nx + ny + nz per group), since a voxel
+//! reads only neighbours on the one to three planes before its own.
 
 pub mod cpu;
+pub mod gpu;
 pub mod sdf;
 
 use crate::error::{Error, Result};
+use crate::volume::Volume;
 use glam::{DVec3, Vec3};
 
 /// The seven lattice steps of the positive octant: faces, edges, then the corner.
@@ -98,6 +105,35 @@ impl Stencil {
             lengths: steps.map(|s| s.length() as f32),
         })
     }
+}
+
+/// The stencil of `extinction`'s grid, once the extinction is known to be finite and
+/// non-negative everywhere: what both twins accept.
+/// The visibility volume of `extinction` on the chosen device (the CPU and GPU twins agree to
+/// float rounding; see tests/sweep_twins.rs).
+pub fn visibility(
+    compute: &crate::gpu::Compute,
+    extinction: &Volume,
+    progress: &dyn crate::progress::Progress,
+) -> Result<Volume> {
+    match compute {
+        crate::gpu::Compute::Gpu(ctx) => gpu::visibility(ctx, extinction, progress),
+        crate::gpu::Compute::Cpu => cpu::visibility(extinction, progress),
+    }
+}
+
+pub(crate) fn validate(extinction: &Volume) -> Result<Stencil> {
+    let stencil = Stencil::new(extinction.spacing())?;
+    if extinction
+        .values()
+        .iter()
+        .any(|s| !(s.is_finite() && *s >= 0.0))
+    {
+        return Err(Error::Volume(
+            "the sweep needs a finite, non-negative extinction at every voxel".into(),
+        ));
+    }
+    Ok(stencil)
 }
 
 #[cfg(test)]
