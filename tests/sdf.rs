@@ -306,23 +306,3 @@ fn sdf_iteration_limit_and_cancel_are_reported() {
         Err(Error::Cancelled)
     ));
 }
-
-/// Speed on a 250^3 sphere: `cargo test --release --test sdf -- sdf_timing --ignored --nocapture`.
-#[test]
-#[ignore]
-fn sdf_timing_250() {
-    let n = 250;
-    let origin = Vec3::splat(-0.5 * (n - 1) as f32);
-    let v = Volume::from_fn([n; 3], Vec3::ONE, origin, |p| 80.0 - p.length()).unwrap();
-    let start = std::time::Instant::now();
-    let r = signed_distance(&v, &params(0.0), &NoProgress).unwrap();
-    let time = start.elapsed();
-    println!(
-        "250^3 sphere: {:.2} s, {} rounds ({} sweeps), {:.1} ns per voxel update",
-        time.as_secs_f64(),
-        r.iterations,
-        8 * r.iterations,
-        time.as_secs_f64() * 1e9 / (8.0 * r.iterations as f64 * (n * n * n) as f64)
-    );
-    assert_finite(&r);
-}

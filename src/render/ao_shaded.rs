@@ -178,7 +178,12 @@ impl RenderMethod for AoParams {
         name: "ao",
         summary: "AO-shaded DVR: ambient light times a VAO volume's openness (Ruiz et al. 2010)",
         module: "render::ao_shaded",
-        shaders: &["raycast.wgsl", "vao_stats.wgsl", "vao_estimate.wgsl"],
+        shaders: &[
+            "raycast.wgsl",
+            "vao_stats.wgsl",
+            "vao_estimate.wgsl",
+            "sweep.wgsl",
+        ],
         lights: ALL_LIGHTS,
         layers: &["beauty", "depth"],
         grids: &[AO_GRID, AO_VARIANCE_GRID],
