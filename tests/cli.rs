@@ -16,6 +16,19 @@ fn occlux(args: &[&str]) -> Output {
         .expect("the occlux binary runs")
 }
 
+/// Runs a command that writes a JSON report to `json` (`-o`), and reads the report.
+fn report_of(args: &[&str], json: &Path) -> serde_json::Value {
+    let mut all = args.to_vec();
+    all.extend(["-o", json.to_str().unwrap()]);
+    let run = occlux(&all);
+    assert!(
+        run.status.success(),
+        "{}",
+        String::from_utf8_lossy(&run.stderr)
+    );
+    serde_json::from_str(&std::fs::read_to_string(json).unwrap()).unwrap()
+}
+
 /// The channels `LAYER.*` of an EXR as (channel, values), read with the exr crate itself.
 fn exr_layer(path: &Path, layer: &str) -> Vec<(String, Vec<f32>)> {
     let image = exr::prelude::read_first_flat_layer_from_file(path).unwrap();
@@ -437,28 +450,22 @@ fn bench_ao_times_each_radius_on_a_crop_and_refuses_bad_requests() {
         env!("CARGO_MANIFEST_DIR"),
         "/../shared/data/scivis/engine.nrrd"
     );
-    let run = occlux(&[
-        "bench-ao",
-        "--volume",
-        engine,
-        "--slices",
-        "6",
-        "--radii",
-        "2,3",
-        "--repeats",
-        "1",
-        "--device",
-        "cpu",
-        "-o",
-        json.to_str().unwrap(),
-    ]);
-    assert!(
-        run.status.success(),
-        "{}",
-        String::from_utf8_lossy(&run.stderr)
+    let report = report_of(
+        &[
+            "bench-ao",
+            "--volume",
+            engine,
+            "--slices",
+            "6",
+            "--radii",
+            "2,3",
+            "--repeats",
+            "1",
+            "--device",
+            "cpu",
+        ],
+        &json,
     );
-    let report: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
     assert_eq!(report["dims"], serde_json::json!([256, 256, 6]));
     let rows = report["rows"].as_array().unwrap();
     assert_eq!(rows.len(), 2);
@@ -555,26 +562,20 @@ fn bench_times_the_registered_methods_and_records_their_parameters() {
         env!("CARGO_MANIFEST_DIR"),
         "/../shared/data/scivis/engine.nrrd"
     );
-    let run = occlux(&[
-        "bench",
-        "--volume",
-        engine,
-        "--sizes",
-        "8",
-        "--repeats",
-        "1",
-        "--device",
-        "cpu",
-        "-o",
-        json.to_str().unwrap(),
-    ]);
-    assert!(
-        run.status.success(),
-        "{}",
-        String::from_utf8_lossy(&run.stderr)
+    let report = report_of(
+        &[
+            "bench",
+            "--volume",
+            engine,
+            "--sizes",
+            "8",
+            "--repeats",
+            "1",
+            "--device",
+            "cpu",
+        ],
+        &json,
     );
-    let report: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
     let rows = report["rows"].as_array().unwrap();
     let cases: Vec<&str> = rows.iter().map(|r| r["method"].as_str().unwrap()).collect();
     assert_eq!(
