@@ -30,7 +30,12 @@ class VIEW3D_PT_occlux(bpy.types.Panel):
         layout.separator()
         column = layout.column(align=True)
         column.prop(settings, "ao_method")
-        column.prop(settings, "ao_radius")
+        if settings.ao_method == "sweep":
+            column.prop(settings, "ao_gamma")
+            column.prop(settings, "ao_alpha")
+            column.prop(settings, "ao_light")
+        elif settings.ao_method != "sweep-physical":
+            column.prop(settings, "ao_radius")
         column.prop(settings, "ao_shading")
         column.prop(settings, "ao_factor")
         layout.operator("occlux.compute_ao", icon="SHADING_RENDERED")

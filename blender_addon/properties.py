@@ -150,6 +150,26 @@ class OccluxSettings(bpy.types.PropertyGroup):
         soft_max=min(64, AO["ao_radius"]["range"]["max"] or 64),
         default=AO["ao_radius"]["default"],
     )
+    ao_gamma: FloatProperty(
+        name="AO gamma",
+        description=f"{AO['ao_gamma']['doc']}, {_range_text(AO['ao_gamma'])}",
+        **_limits(AO["ao_gamma"], precision=2),
+        precision=2,
+        default=AO["ao_gamma"]["default"],
+    )
+    ao_alpha: FloatProperty(
+        name="Surface opacity",
+        description=f"{AO['ao_alpha']['doc']}, {_range_text(AO['ao_alpha'])}",
+        **_limits(AO["ao_alpha"], precision=2),
+        precision=2,
+        default=AO["ao_alpha"]["default"],
+    )
+    ao_light: EnumProperty(
+        name="AO light",
+        description=AO["ao_light"]["doc"],
+        items=_items(AO["ao_light"]),
+        default=AO["ao_light"]["default"],
+    )
     ao_shading: EnumProperty(
         name="AO shading",
         description="What the `ao` grid drives in the material",

@@ -3,8 +3,9 @@
 use clap::{Parser, Subcommand};
 use occlux::ao::commands::{ao_reference_volume, ao_volume};
 use occlux::ao::reference::AoVariant;
+use occlux::ao::sweep::geometric::GeometricParams;
 use occlux::ao::AoVolumeParams;
-use occlux::eval::{bench, dos_accuracy, sweep_accuracy, vao_accuracy, vao_bench};
+use occlux::eval::{bench, dos_accuracy, sweep_accuracy, sweep_bench, vao_accuracy, vao_bench};
 use occlux::export::exr::Precision;
 use occlux::export::vdb::{Compression, VdbOptions};
 use occlux::gpu::DeviceChoice;
@@ -97,6 +98,10 @@ enum Command {
     /// ambient Monte Carlo reference or a Cycles render (relative RMSE over the volume's
     /// pixels), with the time of each stage; table and JSON.
     SweepAccuracy(sweep_accuracy::SweepAccuracyArgs),
+    /// Occlusion sweeping's geometric mode at the paper's sizes on the box-and-sphere phantom
+    /// (CPU): the signed distance alone, with the combined occlusion, with the eight octants;
+    /// medians, the occlusion's cost over the signed distance's; table and JSON.
+    BenchSweep(sweep_bench::SweepBenchArgs),
     /// Monte Carlo reference of the scene (CPU): OUT/STEM-ESTIMATOR.exr (float32 layers beauty
     /// = per-pixel mean, stderr = its standard error) and a PNG preview.
     Reference {
@@ -142,15 +147,39 @@ enum Command {
         #[arg(short, long, default_value = "occlux-out")]
         out: PathBuf,
     },
-    /// AO volume of the scene's classified volume (VAO: Ruiz, Szirmay-Kalos et al.; or the sweep):
-    /// OUT/STEM-ao.vdb (grid `ao`, openness 1 = unoccluded; `ao_variance` with --variance),
+    /// AO volume of the scene's classified volume (VAO: Ruiz, Szirmay-Kalos et al.; or occlusion
+    /// sweeping): OUT/STEM-ao.vdb (grid `ao`, openness 1 = unoccluded; `ao_variance` with
+    /// --variance; `sdf`, a level set, and `ao_oct0`..`ao_oct7` with --octants, by sweep),
     /// OUT/STEM-ao.png (the middle z slice) and OUT/STEM-ao.json (parameters and timing).
     Ao {
         scene: PathBuf,
         /// VAO: cdf, gauss (Winitzki's erf), gauss-exact, penner, or exact (the voxel count:
-        /// slow); or sweep (the visibility, mean transmittance over all directions).
+        /// slow); sweep (occlusion sweeping: the AO of an iso-surface from its signed
+        /// distance); sweep-physical (the visibility, mean transmittance over all directions).
         #[arg(long, default_value = "cdf")]
         method: String,
+        /// sweep: the raw value's iso-surface (default: where a voxel of the classified
+        /// extinction is half opaque).
+        #[arg(long, allow_negative_numbers = true)]
+        iso: Option<f32>,
+        /// sweep: AO^(1/gamma) as a post-process.
+        #[arg(long, default_value_t = 2.0)]
+        gamma: f32,
+        /// sweep: the intensity of the light from each octant, eight values in [0, 1] in the
+        /// order of the ao_oct grids (bit 0: -x, bit 1: -y, bit 2: -z); e.g. 1,1,1,1,0,0,0,0
+        /// lights from above only (the paper's cloudy day).
+        #[arg(long, value_delimiter = ',')]
+        octant_intensities: Option<Vec<f32>>,
+        /// sweep: the surface's opacity alpha in (0, 1]; below 1 light passes through it.
+        #[arg(long, default_value_t = 1.0)]
+        alpha: f32,
+        /// sweep: the combined scalar AO (the mean of the octants) instead of the octants
+        /// weighted by the normal's geometry terms.
+        #[arg(long)]
+        combined: bool,
+        /// sweep: also write the eight octant visibilities (grids ao_oct0..ao_oct7).
+        #[arg(long)]
+        octants: bool,
         /// Tangent-sphere radius in voxels (VAO).
         #[arg(long, default_value_t = 10)]
         radius: u32,
@@ -298,6 +327,7 @@ fn run(cli: Cli) -> occlux::Result<()> {
         Command::AoAccuracy(args) => vao_accuracy::run(&args, quiet),
         Command::DosAccuracy(args) => dos_accuracy::run(&args, quiet),
         Command::SweepAccuracy(args) => sweep_accuracy::run(&args, quiet),
+        Command::BenchSweep(args) => sweep_bench::run(&args, quiet),
         Command::Reference {
             scene,
             estimator,
@@ -336,6 +366,12 @@ fn run(cli: Cli) -> occlux::Result<()> {
         Command::Ao {
             scene,
             method,
+            iso,
+            gamma,
+            octant_intensities,
+            alpha,
+            combined,
+            octants,
             radius,
             field,
             variance,
@@ -344,11 +380,28 @@ fn run(cli: Cli) -> occlux::Result<()> {
             compression,
             half,
         } => {
+            let intensities = match octant_intensities {
+                Some(list) => <[f32; 8]>::try_from(list).map_err(|list| {
+                    occlux::Error::param(
+                        "octant_intensities",
+                        format!("eight values are needed, got {}", list.len()),
+                    )
+                })?,
+                None => [1.0; 8],
+            };
             let params = AoVolumeParams {
                 method: method.parse()?,
                 radius,
                 field: field.parse()?,
                 variance,
+                iso,
+                geometric: GeometricParams {
+                    gamma,
+                    intensities,
+                    alpha,
+                    normal_weighted: !combined,
+                },
+                octants,
             };
             let vdb = VdbOptions {
                 compression: compression.into(),

@@ -9,7 +9,7 @@ use crate::export::usd::{write_usda, StageDescription};
 use crate::export::vdb::{write_vdb, VdbGrid, VdbOptions};
 use crate::gpu::{Compute, DeviceChoice};
 use crate::progress::{self, report_written, say, Bar, Progress};
-use crate::render::ao_shaded::{AO_GRID, AO_VARIANCE_GRID};
+use crate::render::ao_shaded::{AO_GRID, AO_OCTANT_GRIDS, AO_VARIANCE_GRID, SDF_GRID};
 use crate::render::reference::{Estimator, ReferenceImage, ReferenceParams};
 use crate::render::{MethodInput, RenderImage, Rendered};
 use crate::scene::Scene;
@@ -240,7 +240,7 @@ pub fn export(
         rendered
             .grids
             .iter()
-            .map(|grid| VdbGrid::from_volume(grid.name, &grid.volume)),
+            .map(|grid| vdb_grid(grid.name, &grid.volume)),
     );
     let names: Vec<&str> = grids.iter().map(|g| g.name).collect();
     let stage = StageDescription::new(
@@ -262,11 +262,28 @@ pub fn export(
     Ok(written)
 }
 
-/// The VDB grids of an AO volume: `ao` (openness) and `ao_variance` if it was computed.
+/// The VDB grid of a volume Occlux computed, by its name: the signed distance (`sdf`) is a
+/// level set, the rest fog volumes.
+pub fn vdb_grid<'a>(name: &'a str, volume: &'a Volume) -> VdbGrid<'a> {
+    if name == SDF_GRID {
+        VdbGrid::level_set(name, volume)
+    } else {
+        VdbGrid::from_volume(name, volume)
+    }
+}
+
+/// The VDB grids of an AO volume: `ao` (openness) and, where computed, `ao_variance`, `sdf`
+/// (a level set) and `ao_oct0`..`ao_oct7`.
 pub fn ao_grids(ao: &AoVolume) -> Vec<VdbGrid<'_>> {
     let mut grids = vec![VdbGrid::from_volume(AO_GRID, &ao.openness)];
     if let Some(variance) = &ao.variance {
         grids.push(VdbGrid::from_volume(AO_VARIANCE_GRID, variance));
+    }
+    if let Some(sdf) = &ao.sdf {
+        grids.push(vdb_grid(SDF_GRID, sdf));
+    }
+    for (name, octant) in AO_OCTANT_GRIDS.iter().zip(&ao.octants) {
+        grids.push(VdbGrid::from_volume(name, octant));
     }
     grids
 }

@@ -124,6 +124,14 @@ impl Range {
         max_inclusive: false,
     };
 
+    /// Any finite number: values in the data's own units.
+    pub const FINITE: Range = Range {
+        min: f64::NEG_INFINITY,
+        max: f64::INFINITY,
+        min_inclusive: false,
+        max_inclusive: false,
+    };
+
     pub fn contains(&self, v: f64) -> bool {
         let above = if self.min_inclusive {
             v >= self.min

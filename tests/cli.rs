@@ -391,6 +391,103 @@ fn ao_writes_the_grids_slice_and_timing_the_library_computes() {
 }
 
 #[test]
+fn ao_by_occlusion_sweeping_writes_the_level_set_and_octants_the_library_computes() {
+    use occlux::ao::{ao_volume, AoMethod, AoVolumeParams};
+    let out = tempfile::tempdir().unwrap();
+    let scene_path = small_scene(out.path());
+    let dir = out.path().join("swept");
+    let args = |extra: &[&'static str], to: &std::path::Path| {
+        let mut all = vec![
+            "ao".to_owned(),
+            scene_path.display().to_string(),
+            "--method".into(),
+            "sweep".into(),
+            "--compression".into(),
+            "none".into(),
+            "-o".into(),
+            to.display().to_string(),
+        ];
+        all.extend(extra.iter().map(|s| s.to_string()));
+        all
+    };
+    let run = occlux(
+        &args(
+            &[
+                "--octants",
+                "--gamma",
+                "1.5",
+                "--octant-intensities",
+                "1,1,1,1,0,0,0,0",
+            ],
+            &dir,
+        )
+        .iter()
+        .map(String::as_str)
+        .collect::<Vec<_>>(),
+    );
+    assert!(
+        run.status.success(),
+        "{}",
+        String::from_utf8_lossy(&run.stderr)
+    );
+    let scene = Scene::from_file(&scene_path).unwrap();
+    let volume = scene.load_volume().unwrap();
+    let mut params = AoVolumeParams {
+        method: AoMethod::Sweep,
+        octants: true,
+        ..Default::default()
+    };
+    params.geometric.gamma = 1.5;
+    params.geometric.intensities = occlux::ao::sweep::geometric::SKY;
+    let ao = ao_volume(
+        &Compute::Cpu,
+        &volume,
+        &scene.classification,
+        &params,
+        &NoProgress,
+    )
+    .unwrap();
+    let file = std::io::BufReader::new(std::fs::File::open(dir.join("ball-ao.vdb")).unwrap());
+    let mut reader = vdb_rs::VdbReader::new(file).unwrap();
+    let sdf = ao.sdf.as_ref().unwrap();
+    let mut expected: Vec<(String, &occlux::volume::Volume)> =
+        vec![("ao".into(), &ao.openness), ("sdf".into(), sdf)];
+    for (s, octant) in ao.octants.iter().enumerate() {
+        expected.push((format!("ao_oct{s}"), octant));
+    }
+    assert_eq!(expected.len(), 10);
+    for (name, want) in &expected {
+        let grid = reader.read_grid::<f32>(name).unwrap();
+        let mut active = 0;
+        for (p, v, _) in grid.iter() {
+            assert_eq!(
+                v,
+                want.at(p.x as usize, p.y as usize, p.z as usize),
+                "{name} at {p:?}"
+            );
+            active += 1;
+        }
+        assert!(active > 0, "{name}");
+    }
+    // The level set's inside is negative; its outside beyond the narrow band is inactive.
+    assert!(sdf.values().iter().any(|&d| d < 0.0) && sdf.values().iter().any(|&d| d > 0.0));
+
+    // No surface, or the physical sweep asked for octants: named, and nothing written.
+    let bad = out.path().join("bad");
+    for (extra, key) in [
+        (&["--iso", "7"][..], "never crosses"),
+        (&["--gamma", "0"][..], "gamma"),
+        (&["--octant-intensities", "1,1"][..], "eight values"),
+    ] {
+        let all = args(extra, &bad);
+        let run = occlux(&all.iter().map(String::as_str).collect::<Vec<_>>());
+        let stderr = String::from_utf8_lossy(&run.stderr);
+        assert!(!run.status.success() && stderr.contains(key), "{stderr}");
+        assert!(!bad.exists());
+    }
+}
+
+#[test]
 fn ao_shaded_scenes_render_and_export_the_ao_grid() {
     let out = tempfile::tempdir().unwrap();
     let base = std::fs::read_to_string(small_scene(out.path())).unwrap();

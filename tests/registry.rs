@@ -56,13 +56,15 @@ fn every_choice_parses_and_is_written_back() {
                 continue;
             };
             for option in *options {
-                let method = parse(spec.name, json!({ param.key: option.name }))
+                let mut table = companions(param.key);
+                table[param.key] = json!(option.name);
+                let method = parse(spec.name, table)
                     .unwrap_or_else(|e| panic!("{} {}={}: {e}", spec.name, param.key, option.name));
                 assert_eq!(method.to_json()[param.key], json!(option.name));
             }
-            let err = parse(spec.name, json!({ param.key: "no-such-option" }))
-                .unwrap_err()
-                .to_string();
+            let mut table = companions(param.key);
+            table[param.key] = json!("no-such-option");
+            let err = parse(spec.name, table).unwrap_err().to_string();
             assert!(err.contains(&format!("render.{}", param.key)), "{err}");
         }
     }
@@ -72,6 +74,7 @@ fn every_choice_parses_and_is_written_back() {
 fn companions(key: &str) -> Value {
     match key {
         "variance_max" => json!({ "opacity_modulation": true }),
+        "ao_iso" | "ao_gamma" | "ao_alpha" | "ao_light" => json!({ "ao_method": "sweep" }),
         _ => json!({}),
     }
 }

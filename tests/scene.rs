@@ -200,10 +200,42 @@ fn ao_method_reads_its_keys_and_refuses_them_elsewhere() {
             "method = \"ao\"\ndirect = false\nspecular = 0.5",
             "render.specular",
         ),
+        ("method = \"ao\"\nao_gamma = 3", "render.ao_gamma"),
+        (
+            "method = \"ao\"\nao_method = \"sweep-physical\"\nao_light = \"sky\"",
+            "render.ao_light",
+        ),
+        (
+            "method = \"ao\"\nao_method = \"sweep\"\nao_alpha = 0",
+            "render.ao_alpha",
+        ),
+        (
+            "method = \"ao\"\nao_method = \"sweep\"\nao_field = \"value\"",
+            "render.ao_field",
+        ),
     ] {
         let err = error_of(&format!("{MINIMAL}\n[render]\n{render}\n"));
         assert!(err.contains(key), "{render}: {err}");
     }
+}
+
+#[test]
+fn occlusion_sweeping_keys_reach_the_ao_volume() {
+    use occlux::ao::AoMethod;
+    let scene = parse(&format!(
+        "{MINIMAL}\n[render]\nmethod = \"ao\"\nao_method = \"sweep\"\nao_iso = 0.4\n\
+         ao_gamma = 1.5\nao_alpha = 0.5\nao_light = \"sky\"\n"
+    ))
+    .unwrap();
+    let Method::Ao(p) = scene.method else {
+        panic!("{:?}", scene.method)
+    };
+    let ao = p.ao_volume();
+    assert_eq!(ao.method, AoMethod::Sweep);
+    assert_eq!(ao.iso, Some(0.4));
+    assert_eq!((ao.geometric.gamma, ao.geometric.alpha), (1.5, 0.5));
+    assert_eq!(ao.geometric.intensities, occlux::ao::sweep::geometric::SKY);
+    assert!(p.vao().is_none());
 }
 
 #[test]

@@ -1,6 +1,6 @@
 //! The occlusion sweep's visibility (the mean transmittance over all directions) against closed
 //! forms and against the Monte Carlo sphere reference on phantoms and a real CT, and as the
-//! AO of AO-shaded DVR (`ao_method = "sweep"`).
+//! AO of AO-shaded DVR (`ao_method = "sweep-physical"`).
 
 use glam::Vec3;
 use occlux::ao::reference::{ao_reference_at, AoReferenceParams, AoVariant};
@@ -129,10 +129,8 @@ fn ao_volumes_by_sweep_refuse_what_they_cannot_compute() {
     let volume = phantom::by_name("sphere", 8).unwrap();
     let scene = scene_for("[volume]\nphantom = \"sphere\"\nsize = 8");
     let base = AoVolumeParams {
-        method: AoMethod::Sweep,
-        radius: 10,
-        field: occlux::ao::vao::FieldKind::Extinction,
-        variance: false,
+        method: AoMethod::SweepPhysical,
+        ..Default::default()
     };
     let ao = ao_volume(
         &Compute::Cpu,
@@ -159,6 +157,13 @@ fn ao_volumes_by_sweep_refuse_what_they_cannot_compute() {
             },
             "variance",
         ),
+        (
+            AoVolumeParams {
+                octants: true,
+                ..base
+            },
+            "octants",
+        ),
     ] {
         let err = ao_volume(
             &Compute::Cpu,
@@ -173,11 +178,15 @@ fn ao_volumes_by_sweep_refuse_what_they_cannot_compute() {
         assert!(err.contains(key), "{err}");
     }
     assert_eq!("sweep".parse::<AoMethod>().unwrap(), AoMethod::Sweep);
+    assert_eq!(
+        "sweep-physical".parse::<AoMethod>().unwrap(),
+        AoMethod::SweepPhysical
+    );
     assert!("median"
         .parse::<AoMethod>()
         .unwrap_err()
         .to_string()
-        .contains("sweep"));
+        .contains("sweep, sweep-physical"));
 }
 
 #[test]
@@ -187,7 +196,7 @@ fn ao_shaded_dvr_with_the_sweep_matches_the_ambient_reference() {
     let text = "background = 1.0\n[volume]\nphantom = \"ct\"\nsize = 48\n[classification]\n\
                 preset = \"ct-bone\"\ndensity_scale = 0.05\n[camera]\nposition = [3.2, -3.2, 2.6]\n\
                 width = 40\nheight = 40\n[[lights]]\ntype = \"ambient\"\nradiance = 1\n\
-                [render]\nmethod = \"ao\"\nao_method = \"sweep\"\n";
+                [render]\nmethod = \"ao\"\nao_method = \"sweep-physical\"\n";
     let scene = Scene::parse(text, Path::new(".")).unwrap();
     let volume = scene.load_volume().unwrap();
     let rendered = occlux::pipeline::render(&scene, &volume, &Compute::Cpu, &NoProgress).unwrap();
@@ -198,4 +207,41 @@ fn ao_shaded_dvr_with_the_sweep_matches_the_ambient_reference() {
     println!("{error:?}");
     // Measured 0.010 with a reference noise of 0.007.
     assert!(error.rmse < 0.03 && error.bias.abs() < 0.02, "{error:?}");
+}
+
+#[test]
+fn ao_shaded_dvr_with_occlusion_sweeping_exports_its_signed_distance() {
+    // The geometric mode through a scene file: the ao grid darkens where the surface is
+    // enclosed, and the signed distance goes out with it (a level set in the VDB).
+    let text = "[volume]\nphantom = \"ct\"\nsize = 32\n[classification]\npreset = \"ct-bone\"\n\
+                [camera]\nposition = [3.2, -3.2, 2.6]\nwidth = 24\nheight = 24\n[[lights]]\n\
+                type = \"ambient\"\nradiance = 1\n[render]\nmethod = \"ao\"\nao_method = \"sweep\"\n\
+                ao_light = \"sky\"\n";
+    let scene = Scene::parse(text, Path::new(".")).unwrap();
+    let volume = scene.load_volume().unwrap();
+    let rendered = occlux::pipeline::render(&scene, &volume, &Compute::Cpu, &NoProgress).unwrap();
+    let names: Vec<&str> = rendered.grids.iter().map(|g| g.name).collect();
+    assert_eq!(names, ["ao", "sdf"]);
+    let (ao, sdf) = (&rendered.grids[0].volume, &rendered.grids[1].volume);
+    assert!(ao.values().iter().all(|a| (0.0..=1.0).contains(a)));
+    // Some of the surface is lit and some is shadowed under the sky.
+    let surface: Vec<f32> = ao
+        .values()
+        .iter()
+        .zip(sdf.values())
+        .filter(|(_, d)| d.abs() < volume.spacing().x)
+        .map(|(a, _)| *a)
+        .collect();
+    let lit = surface.iter().filter(|&&a| a > 0.8).count();
+    let dark = surface.iter().filter(|&&a| a < 0.5).count();
+    assert!(
+        lit > 0 && dark > 0,
+        "{lit} lit, {dark} dark of {}",
+        surface.len()
+    );
+    assert!(rendered
+        .image
+        .rgba
+        .iter()
+        .all(|p| p.iter().all(|c| c.is_finite())));
 }

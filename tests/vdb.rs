@@ -201,6 +201,7 @@ fn the_writer_refuses_bad_grids_and_leaves_nothing() {
         origin: Vec3::ZERO,
         values,
         background: 0.0,
+        class: Default::default(),
     };
     let ok: &'static [f32] = &[1.0; 8];
     for (grids, what) in [

@@ -59,9 +59,33 @@ class OCCLUX_OT_import_volume(OccluxJob, bpy.types.Operator):
         return f"loaded {result.source.path.name} as '{obj.name}' ({result.vdb})"
 
 
+# The octants' intensities of each `ao_light` (the `ao_oct` order: bit 2 set looks down -z).
+OCTANT_INTENSITIES = {"ambient": [1.0] * 8, "sky": [1.0] * 4 + [0.0] * 4}
+
+
+def ao_options(settings: bpy.types.PropertyGroup) -> dict:
+    """`occlux.ao_volume`'s keyword arguments for the panel's AO method."""
+    if settings.ao_method == "sweep":
+        return {
+            "gamma": settings.ao_gamma,
+            "alpha": settings.ao_alpha,
+            "octant_intensities": OCTANT_INTENSITIES[settings.ao_light],
+        }
+    if settings.ao_method == "sweep-physical":
+        return {}
+    return {"radius": settings.ao_radius}
+
+
+def ao_label(settings: bpy.types.PropertyGroup) -> str:
+    """The AO method as the status line says it."""
+    if settings.ao_method.startswith("sweep"):
+        return settings.ao_method
+    return f"{settings.ao_method}, radius {settings.ao_radius}"
+
+
 class OCCLUX_OT_compute_ao(OccluxJob, bpy.types.Operator):
-    """Compute the volume's ambient occlusion (VAO) with Occlux and add it as a Volume object
-    whose material is shaded by the `ao` grid"""
+    """Compute the volume's ambient occlusion (VAO or occlusion sweeping) with Occlux and add
+    it as a Volume object whose material is shaded by the `ao` grid"""
 
     bl_idname = "occlux.compute_ao"
     bl_label = "Compute AO"
@@ -71,18 +95,20 @@ class OCCLUX_OT_compute_ao(OccluxJob, bpy.types.Operator):
         settings = context.scene.occlux
         source = scenes.VolumeInput.from_settings(settings)
         scene = scenes.build(scenes.volume_tree(source, settings))
-        method, radius, device = settings.ao_method, settings.ao_radius, settings.device
+        method, options, device = settings.ao_method, ao_options(settings), settings.device
         vdb = output_dir(settings) / f"{source.stem}-ao.vdb"
 
         def work(progress: JobProgress) -> Loaded:
             volume = scenes.load_volume(scene, source)
-            ao = occlux.ao_volume(
-                scene, method=method, radius=radius, device=device, volume=volume,
-                progress=progress,
-            )["ao"]  # fmt: skip
+            computed = occlux.ao_volume(
+                scene, method=method, device=device, volume=volume, progress=progress, **options
+            )
             classification = scene.classification
             density = classification.extinction(volume)
-            write_grids(vdb, {"density": density, "value": volume, "ao": ao})
+            # The sweep's signed distance goes along as a level set (`sdf`).
+            grids = {"density": density, "value": volume, "ao": computed["ao"]}
+            grids.update((name, computed[name]) for name in ("sdf",) if name in computed)
+            write_grids(vdb, grids)
             return Loaded(vdb, source, classification, volume)
 
         return work
@@ -90,10 +116,8 @@ class OCCLUX_OT_compute_ao(OccluxJob, bpy.types.Operator):
     def finish(self, context: bpy.types.Context, result: Loaded) -> str:
         settings = context.scene.occlux
         obj = add_volume_object(context, result, ao=settings.ao_shading)
-        return (
-            f"AO ({settings.ao_method}, radius {settings.ao_radius}) of "
-            f"{result.source.path.name} as '{obj.name}' ({result.vdb})"
-        )
+        source = result.source.path.name
+        return f"AO ({ao_label(settings)}) of {source} as '{obj.name}' ({result.vdb})"
 
 
 def add_volume_object(context: bpy.types.Context, loaded: Loaded, ao: str | None):

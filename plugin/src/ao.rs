@@ -1,26 +1,33 @@
-//! `occlux.ao_volume`: VAO volumes (Ruiz, Szirmay-Kalos et al.) of a scene's classified volume,
-//! as a dict of grids ready for `occlux.write_vdb`.
+//! `occlux.ao_volume`: AO volumes (VAO: Ruiz, Szirmay-Kalos et al.; occlusion sweeping) of a
+//! scene's classified volume, as a dict of grids ready for `occlux.write_vdb`.
 
 use crate::py_err;
 use crate::render::{compute, scene_volume, with_progress};
 use crate::scene::PyScene;
 use crate::volume::PyVolume;
+use occlux::ao::sweep::geometric::GeometricParams;
 use occlux::ao::{self, AoVolumeParams};
-use occlux::render::ao_shaded::{AO_GRID, AO_VARIANCE_GRID};
+use occlux::render::ao_shaded::{AO_GRID, AO_OCTANT_GRIDS, AO_VARIANCE_GRID, SDF_GRID};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
 /// Computes the AO volume of `scene` (its own volume, or `volume`) classified by its
 /// classification: `method` "cdf", "gauss", "gauss-exact", "penner" or "exact" (VAO; the
 /// voxel count is slow and always on the CPU) with tangent-sphere `radius` in voxels and
-/// `field` "extinction" or "value", or "sweep" (the visibility, the mean transmittance of the
-/// extinction over all directions). Returns {"ao": Volume (openness, 1 = unoccluded)} plus "ao_variance" when
-/// `variance` is true, on the volume's grid. `device` and `progress` as for `render`
-/// (returning False from `progress` cancels). The GIL is released while it computes.
+/// `field` "extinction" or "value"; "sweep" (occlusion sweeping: the AO of the iso-surface
+/// `iso` of the raw values, or without it of the classified extinction at half its maximum,
+/// with `gamma`, the eight `octant_intensities`, the surface's opacity `alpha` and, with
+/// `combined`, the octants' plain mean); or "sweep-physical" (the visibility, the mean
+/// transmittance of the extinction over all directions). Returns {"ao": Volume (openness, 1 =
+/// unoccluded)} plus "ao_variance" when `variance` is true, "sdf" (the signed distance,
+/// negative inside) for "sweep", and "ao_oct0".."ao_oct7" when `octants` is true, on the
+/// volume's grid. `device` and `progress` as for `render` (returning False from `progress`
+/// cancels). The GIL is released while it computes.
 #[pyfunction]
 #[pyo3(signature = (
     scene, method = "cdf", radius = 10, field = "extinction", variance = false, device = "auto",
-    volume = None, progress = None
+    volume = None, progress = None, iso = None, gamma = 2.0, octant_intensities = None,
+    alpha = 1.0, combined = false, octants = false
 ))]
 #[allow(clippy::too_many_arguments)] // Python keyword arguments, all with defaults
 pub fn ao_volume<'py>(
@@ -33,12 +40,35 @@ pub fn ao_volume<'py>(
     device: &str,
     volume: Option<&PyVolume>,
     progress: Option<Py<PyAny>>,
+    iso: Option<f32>,
+    gamma: f32,
+    octant_intensities: Option<Vec<f32>>,
+    alpha: f32,
+    combined: bool,
+    octants: bool,
 ) -> PyResult<Bound<'py, PyDict>> {
+    let intensities = match octant_intensities {
+        None => [1.0; 8],
+        Some(list) => <[f32; 8]>::try_from(list).map_err(|list| {
+            py_err(occlux::Error::param(
+                "octant_intensities",
+                format!("eight values are needed, got {}", list.len()),
+            ))
+        })?,
+    };
     let params = AoVolumeParams {
         method: method.parse().map_err(py_err)?,
         radius,
         field: field.parse().map_err(py_err)?,
         variance,
+        iso,
+        geometric: GeometricParams {
+            gamma,
+            intensities,
+            alpha,
+            normal_weighted: !combined,
+        },
+        octants,
     };
     params.validate().map_err(py_err)?;
     let compute = compute(py, device)?;
@@ -51,6 +81,12 @@ pub fn ao_volume<'py>(
     grids.set_item(AO_GRID, PyVolume::from(ao.openness))?;
     if let Some(v) = ao.variance {
         grids.set_item(AO_VARIANCE_GRID, PyVolume::from(v))?;
+    }
+    if let Some(sdf) = ao.sdf {
+        grids.set_item(SDF_GRID, PyVolume::from(sdf))?;
+    }
+    for (name, octant) in AO_OCTANT_GRIDS.iter().zip(ao.octants) {
+        grids.set_item(name, PyVolume::from(octant))?;
     }
     Ok(grids)
 }

@@ -41,7 +41,7 @@ pub fn ao_volume(
     bar.finish();
     let reach = match params.method {
         AoMethod::Vao(_) => format!("radius {} voxels", params.radius),
-        AoMethod::Sweep => "the whole volume".to_owned(),
+        AoMethod::Sweep | AoMethod::SweepPhysical => "the whole volume".to_owned(),
     };
     say(
         quiet,

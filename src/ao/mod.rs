@@ -1,11 +1,13 @@
 //! Ambient-occlusion volumes: per-voxel occlusion grids that renderers (and Blender, through
-//! VDB) shade with. `vao` computes them fast from local statistics; `sweep` computes the
-//! visibility, the mean transmittance over all directions, in eight sweeps (both with CPU and
-//! GPU twins);
+//! VDB) shade with. `vao` computes them fast from local statistics; `sweep` in eight octant
+//! sweeps over the grid, either the paper's occlusion of an iso-surface from its signed
+//! distance (geometric mode) or the visibility, the mean transmittance of the classified
+//! extinction over all directions (physical mode);
 //! `reference` holds the Monte Carlo references the fast methods are measured against.
 
 pub mod commands;
 pub mod reference;
+pub mod surface_reference;
 pub mod sweep;
 pub mod vao;
 
@@ -15,18 +17,24 @@ use crate::gpu::Compute;
 use crate::progress::Progress;
 use crate::volume::Volume;
 use serde::{Deserialize, Serialize};
+use sweep::geometric::GeometricParams;
+use sweep::sdf::SdfParams;
 use vao::{AoVolume, Estimator, FieldKind, ScalarField, VaoParams};
 
 /// How an AO volume is computed. By name in scene files, on the command line and in JSON: a
-/// VAO estimator's (`cdf`, `gauss`, `gauss-exact`, `penner`, `exact`) or `sweep`.
+/// VAO estimator's (`cdf`, `gauss`, `gauss-exact`, `penner`, `exact`), `sweep` or
+/// `sweep-physical`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(try_from = "String", into = "&'static str")]
 pub enum AoMethod {
     /// Openness from the local statistics of the tangent sphere (the VAO paper).
     Vao(Estimator),
-    /// Visibility: the mean transmittance of the classified extinction over all directions,
-    /// by the occlusion sweep ([`sweep`]), at any range; CPU and GPU twins.
+    /// Occlusion sweeping's geometric mode: the ambient occlusion of an iso-surface from its
+    /// signed distance ([`sweep::geometric`]), at any range; CPU.
     Sweep,
+    /// Occlusion sweeping's physical mode: the visibility, the mean transmittance of the
+    /// classified extinction over all directions ([`sweep`]), at any range; CPU and GPU twins.
+    SweepPhysical,
 }
 
 impl Default for AoMethod {
@@ -40,12 +48,14 @@ impl AoMethod {
         match self {
             AoMethod::Vao(e) => e.name(),
             AoMethod::Sweep => "sweep",
+            AoMethod::SweepPhysical => "sweep-physical",
         }
     }
 
-    /// Whether it runs on the CPU whatever the device (the exact count, a reference).
+    /// Whether it runs on the CPU whatever the device (the exact count, a reference; the
+    /// geometric sweep, whose signed distance is sequential Gauss-Seidel).
     pub fn cpu_only(self) -> bool {
-        self == AoMethod::Vao(Estimator::Exact)
+        matches!(self, AoMethod::Vao(Estimator::Exact) | AoMethod::Sweep)
     }
 }
 
@@ -54,11 +64,15 @@ impl std::str::FromStr for AoMethod {
     fn from_str(s: &str) -> Result<Self> {
         match s {
             "sweep" => Ok(AoMethod::Sweep),
+            "sweep-physical" => Ok(AoMethod::SweepPhysical),
             _ => s.parse().map(AoMethod::Vao).map_err(|_| {
                 let vao: Vec<&str> = Estimator::ALL.iter().map(|e| e.name()).collect();
                 Error::param(
                     "method",
-                    format!("unknown AO method '{s}'; known: {}, sweep", vao.join(", ")),
+                    format!(
+                        "unknown AO method '{s}'; known: {}, sweep, sweep-physical",
+                        vao.join(", ")
+                    ),
                 )
             }),
         }
@@ -82,12 +96,35 @@ impl From<AoMethod> for &'static str {
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct AoVolumeParams {
     pub method: AoMethod,
-    /// VAO's tangent-sphere radius in voxels (the sweep reaches the whole volume).
+    /// VAO's tangent-sphere radius in voxels (the sweeps reach the whole volume).
     pub radius: u32,
-    /// The field VAO's statistics run on (the sweep reads the extinction).
+    /// The field VAO's statistics run on (the sweeps read the classified extinction).
     pub field: FieldKind,
     /// Also return the local variance (VAO only).
     pub variance: bool,
+    /// The geometric sweep's surface: the raw value's iso-surface; `None`: the classified
+    /// extinction's half-maximum surface (sigma_t = max sigma_t / 2 over the volume, as edges
+    /// are found at half maximum in imaging), which needs no knowledge of the data's units.
+    pub iso: Option<f32>,
+    /// The geometric sweep's shading (gamma, octant intensities, translucency).
+    pub geometric: GeometricParams,
+    /// Also return the eight octant visibilities (geometric sweep).
+    pub octants: bool,
+}
+
+impl Default for AoVolumeParams {
+    fn default() -> Self {
+        let vao = VaoParams::default();
+        Self {
+            method: AoMethod::default(),
+            radius: vao.radius,
+            field: FieldKind::default(),
+            variance: vao.variance,
+            iso: None,
+            geometric: GeometricParams::default(),
+            octants: false,
+        }
+    }
 }
 
 impl AoVolumeParams {
@@ -99,28 +136,75 @@ impl AoVolumeParams {
                 estimator,
                 variance: self.variance,
             }),
-            AoMethod::Sweep => None,
+            AoMethod::Sweep | AoMethod::SweepPhysical => None,
         }
     }
 
     pub fn validate(&self) -> Result<()> {
-        match self.vao() {
-            Some(vao) => vao.validate(),
-            None if self.field != FieldKind::Extinction => Err(Error::param(
-                "field",
-                "the sweep's visibility is a transmittance: it reads the extinction only",
-            )),
-            None if self.variance => Err(Error::param(
-                "variance",
-                "the sweep computes no local variance (VAO's statistics do)",
-            )),
-            None => Ok(()),
+        if let Some(vao) = self.vao() {
+            return vao.validate();
         }
+        if self.field != FieldKind::Extinction {
+            return Err(Error::param(
+                "field",
+                "the sweeps read the classified extinction (or --iso for a raw value's surface)",
+            ));
+        }
+        if self.variance {
+            return Err(Error::param(
+                "variance",
+                "the sweeps compute no local variance (VAO's statistics do)",
+            ));
+        }
+        if self.method == AoMethod::SweepPhysical && self.octants {
+            return Err(Error::param(
+                "octants",
+                "the physical sweep keeps no octant grids (the geometric sweep does)",
+            ));
+        }
+        if let Some(iso) = self.iso {
+            if !iso.is_finite() {
+                return Err(Error::param("iso", format!("must be finite, got {iso}")));
+            }
+        }
+        self.geometric.validate()
+    }
+
+    /// The field the geometric sweep measures distances on, and its signed distance's
+    /// parameters: the raw values at `iso`, or the classified extinction at half its maximum.
+    fn surface(
+        &self,
+        volume: &Volume,
+        classification: &Classification,
+    ) -> Result<(Volume, SdfParams)> {
+        let (field, iso) = match self.iso {
+            Some(iso) => (volume.clone(), iso),
+            None => {
+                let extinction = classification.extinction(volume)?;
+                let (_, max) = extinction.value_range();
+                if max <= 0.0 {
+                    return Err(Error::Volume(
+                        "the classification makes the whole volume transparent: there is no \
+                         surface to occlude (give the sweep an iso-value of the raw data)"
+                            .into(),
+                    ));
+                }
+                (extinction, 0.5 * max)
+            }
+        };
+        Ok((
+            field,
+            SdfParams {
+                iso,
+                ..Default::default()
+            },
+        ))
     }
 }
 
 /// The AO volume of a classified volume: `openness` (1 = unoccluded) on its grid, and the
-/// local variance when asked for, on `compute` (VAO's exact count always on the CPU).
+/// local variance, signed distance and octant visibilities when the method gives them, on
+/// `compute` (VAO's exact count and the geometric sweep always on the CPU).
 pub fn ao_volume(
     compute: &Compute,
     volume: &Volume,
@@ -129,17 +213,29 @@ pub fn ao_volume(
     progress: &dyn Progress,
 ) -> Result<AoVolume> {
     params.validate()?;
-    match params.vao() {
-        Some(vao) => {
-            let field = ScalarField::new(volume, classification, params.field)?;
-            vao::ao_volume(compute, &field, &vao, progress)
-        }
-        None => {
-            let extinction = classification.extinction(volume)?;
-            Ok(AoVolume {
-                openness: sweep::visibility(compute, &extinction, progress)?,
-                variance: None,
-            })
-        }
+    if let Some(vao) = params.vao() {
+        let field = ScalarField::new(volume, classification, params.field)?;
+        return vao::ao_volume(compute, &field, &vao, progress);
     }
+    if params.method == AoMethod::Sweep {
+        let (field, surface) = params.surface(volume, classification)?;
+        let swept = sweep::geometric::occlusion(
+            &field,
+            &surface,
+            &params.geometric,
+            params.octants,
+            progress,
+        )?;
+        return Ok(AoVolume {
+            openness: swept.ao,
+            variance: None,
+            sdf: Some(swept.sdf.sdf),
+            octants: swept.octants.unwrap_or_default(),
+        });
+    }
+    let extinction = classification.extinction(volume)?;
+    Ok(AoVolume::new(
+        sweep::visibility(compute, &extinction, progress)?,
+        None,
+    ))
 }

@@ -1,5 +1,6 @@
 //! The OpenVDB writer (no Rust crate writes VDB): float grids in the standard
-//! `Tree_float_5_4_3` layout of file version 224, several grids per file, fog-volume class,
+//! `Tree_float_5_4_3` layout of file version 224, several grids per file, fog-volume or
+//! level-set class,
 //! sparse (voxels equal to the background are inactive; leaves without active voxels and empty
 //! internal nodes are not written), the index-to-world transform in the grid, optional zlib.
 //! Layout: ../shared/notes/openvdb-format.md and OpenVDB's io/Archive.cc.
@@ -64,7 +65,30 @@ pub struct VdbGrid<'a> {
     pub origin: Vec3,
     pub values: &'a [f32],
     pub background: f32,
+    pub class: GridClass,
 }
+
+/// OpenVDB's grid class: how readers (Blender among them) interpret the values.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum GridClass {
+    /// Densities, 0 outside.
+    #[default]
+    FogVolume,
+    /// A signed distance, negative inside; its background is the narrow band's half width.
+    LevelSet,
+}
+
+impl GridClass {
+    fn name(self) -> &'static [u8] {
+        match self {
+            GridClass::FogVolume => b"fog volume",
+            GridClass::LevelSet => b"level set",
+        }
+    }
+}
+
+/// OpenVDB's default half width of a level set's narrow band, in voxels.
+const LEVEL_SET_HALF_WIDTH: f32 = 3.0;
 
 impl<'a> VdbGrid<'a> {
     /// A grid holding a volume's values, background 0.
@@ -76,6 +100,17 @@ impl<'a> VdbGrid<'a> {
             origin: volume.origin(),
             values: volume.values(),
             background: 0.0,
+            class: GridClass::FogVolume,
+        }
+    }
+
+    /// A signed distance (negative inside, world units) as a level set: every voxel stored,
+    /// the background OpenVDB's default narrow-band half width (three voxels).
+    pub fn level_set(name: &'a str, sdf: &'a Volume) -> Self {
+        Self {
+            background: LEVEL_SET_HALF_WIDTH * sdf.spacing().max_element(),
+            class: GridClass::LevelSet,
+            ..Self::from_volume(name, sdf)
         }
     }
 
@@ -397,7 +432,7 @@ fn write_grid<W: Write + Seek>(
     // OpenVDB marks half-float grids twice: the type name's suffix and this metadata (which is
     // what vdb-rs reads).
     w.write_all(&(5 + options.half as u32).to_le_bytes())?;
-    metadata(w, "class", "string", b"fog volume")?;
+    metadata(w, "class", "string", grid.class.name())?;
     if options.half {
         metadata(w, "is_saved_as_half_float", "bool", &[1])?;
     }

@@ -2,6 +2,7 @@
 //! the same device, then the ray caster with `Shading::AmbientOcclusion` reading it, optionally
 //! with the paper's opacity modulation by local variance.
 
+use crate::ao::sweep::geometric::{self, GeometricParams};
 use crate::ao::vao::{self, Estimator, FieldKind, VaoParams, MAX_RADIUS};
 use crate::ao::{self as ao_volumes, AoMethod, AoVolumeParams};
 use crate::error::Result;
@@ -16,6 +17,11 @@ use serde::{Deserialize, Serialize};
 /// The AO volume's grid, and its local variance's.
 pub const AO_GRID: &str = "ao";
 pub const AO_VARIANCE_GRID: &str = "ao_variance";
+/// Occlusion sweeping's signed distance (a level set) and octant visibilities.
+pub const SDF_GRID: &str = "sdf";
+pub const AO_OCTANT_GRIDS: [&str; 8] = [
+    "ao_oct0", "ao_oct1", "ao_oct2", "ao_oct3", "ao_oct4", "ao_oct5", "ao_oct6", "ao_oct7",
+];
 
 /// `method = "ao"`: the ray caster's keys, the VAO volume's (`ao_*`), opacity modulation, and
 /// gradient shading of the direct light (`specular`, `shininess` and `normal_threshold`, absent:
@@ -29,6 +35,10 @@ pub struct AoParams {
     pub ao_radius: u32,
     pub ao_field: FieldKind,
     pub ao_variance: bool,
+    pub ao_iso: Option<f32>,
+    pub ao_gamma: f32,
+    pub ao_alpha: f32,
+    pub ao_light: AoLight,
     pub opacity_modulation: bool,
     pub variance_max: Option<f32>,
     pub direct: bool,
@@ -40,6 +50,7 @@ pub struct AoParams {
 impl Default for AoParams {
     fn default() -> Self {
         let vao = VaoParams::default();
+        let geometric = GeometricParams::default();
         let march = RaycastParams::default();
         Self {
             step: march.step,
@@ -48,6 +59,10 @@ impl Default for AoParams {
             ao_radius: vao.radius,
             ao_field: FieldKind::default(),
             ao_variance: vao.variance,
+            ao_iso: None,
+            ao_gamma: geometric.gamma,
+            ao_alpha: geometric.alpha,
+            ao_light: AoLight::Ambient,
             opacity_modulation: false,
             variance_max: None,
             direct: true,
@@ -85,8 +100,13 @@ const AO_METHOD: ParamSpec = ParamSpec {
             },
             Choice {
                 name: "sweep",
-                doc: "Visibility: the mean transmittance over all directions, in eight sweeps \
-                      at any range; ao_radius and ao_field do not apply",
+                doc: "Occlusion sweeping: the ambient occlusion of an iso-surface (ao_iso) from \
+                      its signed distance, in eight octant sweeps at any range",
+            },
+            Choice {
+                name: "sweep-physical",
+                doc: "Visibility: the mean transmittance of the extinction over all directions, \
+                      in eight sweeps at any range (exact AO-shaded DVR up to its error)",
             },
         ],
     },
@@ -119,6 +139,68 @@ const AO_VARIANCE: ParamSpec = ParamSpec {
     doc: "Also export the local variance (grid ao_variance)",
     kind: ParamKind::Bool,
 };
+const AO_ISO: ParamSpec = ParamSpec {
+    key: "ao_iso",
+    doc: "Occlusion sweeping: the raw value's iso-surface; absent: where a voxel of the \
+          classified extinction is half opaque",
+    kind: ParamKind::Float {
+        range: Range::FINITE,
+        optional: true,
+    },
+};
+const AO_GAMMA: ParamSpec = ParamSpec {
+    key: "ao_gamma",
+    doc: "Occlusion sweeping: AO^(1/gamma) as a post-process",
+    kind: ParamKind::Float {
+        range: Range::closed(0.1, 10.0),
+        optional: false,
+    },
+};
+const AO_ALPHA: ParamSpec = ParamSpec {
+    key: "ao_alpha",
+    doc:
+        "Occlusion sweeping: the surface's opacity; below 1 it is translucent, lit from both sides",
+    kind: ParamKind::Float {
+        range: Range::above(0.0, 1.0),
+        optional: false,
+    },
+};
+const AO_LIGHT: ParamSpec = ParamSpec {
+    key: "ao_light",
+    doc: "Occlusion sweeping: where the ambient light comes from",
+    kind: ParamKind::Choice {
+        options: &[
+            Choice {
+                name: "ambient",
+                doc: "Every direction: ambient occlusion",
+            },
+            Choice {
+                name: "sky",
+                doc: "The four octants above (+z): the paper's cloudy day, low-frequency shadows",
+            },
+        ],
+    },
+};
+
+/// Where the geometric sweep's light comes from (`ao_light`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum AoLight {
+    #[default]
+    Ambient,
+    Sky,
+}
+
+impl AoLight {
+    /// The octants' intensities.
+    pub fn intensities(self) -> [f32; 8] {
+        match self {
+            AoLight::Ambient => [1.0; 8],
+            AoLight::Sky => geometric::SKY,
+        }
+    }
+}
+
 const OPACITY_MODULATION: ParamSpec = ParamSpec {
     key: "opacity_modulation",
     doc: "Modulate the extinction by min(variance / variance_max, 1) (the VAO paper)",
@@ -164,6 +246,14 @@ impl AoParams {
             radius: self.ao_radius,
             field: self.ao_field,
             variance: self.ao_variance || self.opacity_modulation,
+            iso: self.ao_iso,
+            geometric: GeometricParams {
+                gamma: self.ao_gamma,
+                alpha: self.ao_alpha,
+                intensities: self.ao_light.intensities(),
+                ..Default::default()
+            },
+            octants: false,
         }
     }
 
@@ -176,7 +266,8 @@ impl AoParams {
 impl RenderMethod for AoParams {
     const SPEC: MethodSpec = MethodSpec {
         name: "ao",
-        summary: "AO-shaded DVR: ambient light times a VAO volume's openness (Ruiz et al. 2010)",
+        summary: "AO-shaded DVR: ambient light times an AO volume's openness (VAO, Ruiz et al. \
+                  2010, or occlusion sweeping)",
         module: "render::ao_shaded",
         shaders: &[
             "raycast.wgsl",
@@ -186,7 +277,7 @@ impl RenderMethod for AoParams {
         ],
         lights: ALL_LIGHTS,
         layers: &["beauty", "depth"],
-        grids: &[AO_GRID, AO_VARIANCE_GRID],
+        grids: &[AO_GRID, AO_VARIANCE_GRID, SDF_GRID],
         params: &[
             STEP,
             ERT_THRESHOLD,
@@ -194,6 +285,10 @@ impl RenderMethod for AoParams {
             AO_RADIUS,
             AO_FIELD,
             AO_VARIANCE,
+            AO_ISO,
+            AO_GAMMA,
+            AO_ALPHA,
+            AO_LIGHT,
             OPACITY_MODULATION,
             VARIANCE_MAX,
             DIRECT,
@@ -204,7 +299,25 @@ impl RenderMethod for AoParams {
     };
 
     fn resolve(self) -> Result<Self> {
+        let defaults = Self::default();
         AO_RADIUS.check(self.ao_radius as f64)?;
+        AO_ISO.check_optional(self.ao_iso)?;
+        AO_GAMMA.check(self.ao_gamma as f64)?;
+        AO_ALPHA.check(self.ao_alpha as f64)?;
+        let geometric_keys = [
+            (AO_ISO, self.ao_iso.is_some()),
+            (AO_GAMMA, self.ao_gamma != defaults.ao_gamma),
+            (AO_ALPHA, self.ao_alpha != defaults.ao_alpha),
+            (AO_LIGHT, self.ao_light != defaults.ao_light),
+        ];
+        if let Some((key, _)) = geometric_keys.iter().find(|(_, set)| *set) {
+            if self.ao_method != AoMethod::Sweep {
+                return Err(key.error(format!(
+                    "shapes occlusion sweeping: only for ao_method = \"sweep\" (not \"{}\")",
+                    self.ao_method.name()
+                )));
+            }
+        }
         VARIANCE_MAX.check_optional(self.variance_max)?;
         if self.variance_max.is_some() && !self.opacity_modulation {
             return Err(VARIANCE_MAX.error("is for opacity_modulation = true"));
@@ -221,14 +334,16 @@ impl RenderMethod for AoParams {
                     AO_VARIANCE.error("the exact estimator counts voxels and computes no variance")
                 );
             }
-            AoMethod::Sweep if self.ao_field != FieldKind::Extinction => {
+            AoMethod::Sweep | AoMethod::SweepPhysical if self.ao_field != FieldKind::Extinction => {
                 return Err(AO_FIELD.error(
-                    "the sweep's visibility is a transmittance: it reads the extinction only",
+                    "the sweeps read the classified extinction (ao_iso picks a raw value's surface)",
                 ));
             }
-            AoMethod::Sweep if self.ao_variance || self.opacity_modulation => {
+            AoMethod::Sweep | AoMethod::SweepPhysical
+                if self.ao_variance || self.opacity_modulation =>
+            {
                 return Err(AO_VARIANCE.error(
-                    "the sweep computes no local variance (nor opacity modulation from it)",
+                    "the sweeps compute no local variance (nor opacity modulation from it)",
                 ));
             }
             _ => {}
@@ -244,7 +359,8 @@ impl RenderMethod for AoParams {
 }
 
 /// Computes the AO volume (progress: its units first, then the image rows) and renders with it;
-/// the grids are the openness and, if asked for, the local variance.
+/// the grids are the openness and, if asked for, the local variance; the geometric sweep's
+/// signed distance.
 pub fn render(input: &MethodInput, params: &AoParams) -> Result<Rendered> {
     let (compute, progress) = (input.compute, input.progress);
     let ao = ao_volumes::ao_volume(
@@ -279,6 +395,12 @@ pub fn render(input: &MethodInput, params: &AoParams) -> Result<Rendered> {
         grids.push(Grid {
             name: AO_VARIANCE_GRID,
             volume: variance,
+        });
+    }
+    if let Some(sdf) = ao.sdf {
+        grids.push(Grid {
+            name: SDF_GRID,
+            volume: sdf,
         });
     }
     Ok(Rendered { image, grids })

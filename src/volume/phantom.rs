@@ -11,7 +11,15 @@ use crate::error::{Error, Result};
 use glam::Vec3;
 
 /// The phantom names `by_name` accepts.
-pub const PHANTOMS: &[&str] = &["ct", "marschner-lobb", "shells", "slab", "sphere", "cloud"];
+pub const PHANTOMS: &[&str] = &[
+    "ct",
+    "marschner-lobb",
+    "shells",
+    "slab",
+    "sphere",
+    "cloud",
+    "box-sphere",
+];
 
 /// Largest phantom side (2048^3 f32 would be 32 GiB).
 pub const MAX_SIDE: usize = 1024;
@@ -25,6 +33,7 @@ pub fn by_name(name: &str, n: usize) -> Result<Volume> {
         "slab" => slab(n, 0.5),
         "sphere" => sphere(n, 0.75),
         "cloud" => cloud(n, 1),
+        "box-sphere" => box_and_sphere([n; 3]),
         other => Err(unknown(other)),
     }
 }
@@ -54,6 +63,37 @@ fn cube(n: usize, f: impl Fn(Vec3) -> f32 + Sync) -> Result<Volume> {
     }
     let h = 2.0 / n as f32;
     Volume::from_fn([n; 3], Vec3::splat(h), Vec3::splat(-1.0 + 0.5 * h), f)
+}
+
+/// A ball resting on a floor next to a cube standing on it, values 1 inside and 0 outside
+/// (anti-aliased): the occlusion sweeping paper's test scene, with contact creases, a cast
+/// overhang and open sky. Cubic voxels of 2 / nx; x and y span [-1, 1], z is centred; the floor
+/// is z < -0.3, the ball of radius 0.3 sits at (0.4, 0, 0), the cube of half side 0.25 at
+/// (-0.4, 0, -0.05). Any dims from 16 a side (the ball needs z in [-0.3, 0.3]: nz >= 0.6 nx).
+pub fn box_and_sphere(dims: [usize; 3]) -> Result<Volume> {
+    let [nx, ny, nz] = dims;
+    if dims.iter().any(|&d| !(16..=MAX_SIDE).contains(&d)) || 10 * nz < 6 * nx {
+        return Err(Error::param(
+            "volume.size",
+            format!(
+                "the box-and-sphere phantom needs sides in 16..={MAX_SIDE} and nz >= 0.6 nx, \
+                 got {dims:?}"
+            ),
+        ));
+    }
+    let h = 2.0 / nx as f32;
+    let origin = Vec3::new(
+        -1.0 + 0.5 * h,
+        -(ny as f32 - 1.0) * 0.5 * h,
+        -(nz as f32 - 1.0) * 0.5 * h,
+    );
+    Volume::from_fn(dims, Vec3::splat(h), origin, |p| {
+        let floor = p.z + 0.3;
+        let ball = (p - Vec3::new(0.4, 0.0, 0.0)).length() - 0.3;
+        let q = (p - Vec3::new(-0.4, 0.0, -0.05)).abs() - Vec3::splat(0.25);
+        let cube = q.max(Vec3::ZERO).length() + q.max_element().min(0.0);
+        coverage(floor.min(ball).min(cube), h)
+    })
 }
 
 /// Anti-aliased inside indicator of a signed distance over voxels of spacing `h`.

@@ -302,7 +302,7 @@ def test_composite_builds_the_compositor_group(extension: Path, tmp_path: Path) 
 
 @pytest.mark.parametrize(
     ("source", "method", "shading"),
-    [("phantom", "cdf", "ALBEDO"), ("tooth", "gauss", "EMISSION")],
+    [("phantom", "cdf", "ALBEDO"), ("tooth", "gauss", "EMISSION"), ("phantom", "sweep", "ALBEDO")],
 )
 def test_compute_ao_adds_a_volume_shaded_by_its_ao_grid(
     extension: Path, tmp_path: Path, openvdb, source: str, method: str, shading: str
@@ -321,7 +321,7 @@ def test_compute_ao_adds_a_volume_shaded_by_its_ao_grid(
         s.preset = {preset!r}
         s.output_dir = {str(out) + "/"!r}
         s.ao_method, s.ao_radius, s.ao_shading, s.device = {method!r}, 4, {shading!r}, "cpu"
-        s.ao_factor = 0.7
+        s.ao_factor, s.ao_gamma, s.ao_light = 0.7, 1.5, "sky"
         result["op"] = list(bpy.ops.occlux.compute_ao())
         obj = bpy.data.objects[{path.stem + "-ao"!r}]
         result["grids"] = sorted(g.name for g in obj.data.grids)
@@ -341,10 +341,11 @@ def test_compute_ao_adds_a_volume_shaded_by_its_ao_grid(
         """,
     )
     assert result["op"] == ["FINISHED"], output
-    assert result["grids"] == ["ao", "density", "value"]
+    sweep = method == "sweep"
+    assert result["grids"] == ["ao", "density"] + ["sdf"] * sweep + ["value"]
     assert result["filepath"] == str(out / f"{path.stem}-ao.vdb")
     assert sorted(p.name for p in out.iterdir()) == [f"{path.stem}-ao.vdb"], "no temporary left"
-    assert "AO" in result["status"] and "radius 4" in result["status"]
+    assert "AO" in result["status"] and ("radius 4" in result["status"]) != sweep
     if shading == "ALBEDO":
         assert result["ao_to"] == ["ShaderNodeMix"] and result["emission_from"] is None
         assert result["color_from"] == "ShaderNodeMix"
@@ -359,7 +360,9 @@ def test_compute_ao_adds_a_volume_shaded_by_its_ao_grid(
     fitted = occlux.Volume(volume.values, spacing=tuple(np.array(volume.spacing) * scale))
     scene = occlux.Scene.from_dict(AO_SCENE)
     scene.classification = occlux.Classification.preset(preset)
-    want = occlux.ao_volume(scene, method=method, radius=4, device="cpu", volume=fitted)["ao"]
+    # The sweep takes the panel's gamma and its sky (the four upper octants).
+    options = {"gamma": 1.5, "octant_intensities": [1] * 4 + [0] * 4} if sweep else {"radius": 4}
+    want = occlux.ao_volume(scene, method=method, device="cpu", volume=fitted, **options)["ao"]
     grid = openvdb.read(str(out / f"{path.stem}-ao.vdb"), "ao")
     got = np.zeros(volume.dims, dtype=np.float32)  # x, y, z
     grid.copyToArray(got, ijk=(0, 0, 0))

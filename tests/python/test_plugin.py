@@ -385,10 +385,10 @@ def test_ao_volume_refuses_bad_arguments_and_cancels() -> None:
         occlux.ao_volume(scene, radius=3, device="cpu", progress=lambda done, total: False)
 
 
-def test_ao_volume_by_sweep_is_a_visibility_of_the_extinction() -> None:
+def test_ao_volume_by_the_physical_sweep_is_a_visibility_of_the_extinction() -> None:
     scene = occlux.Scene.from_toml(scene_text())
     volume = scene.load_volume()
-    swept = occlux.ao_volume(scene, method="sweep", device="cpu")
+    swept = occlux.ao_volume(scene, method="sweep-physical", device="cpu")
     assert sorted(swept) == ["ao"]
     ao = swept["ao"].values
     extinction = scene.classification.extinction(volume).values
@@ -397,13 +397,46 @@ def test_ao_volume_by_sweep_is_a_visibility_of_the_extinction() -> None:
     assert ao[extinction > 0].mean() < ao[extinction == 0].mean()
     # The sweep reads the extinction and computes no variance.
     with pytest.raises(occlux.OccluxError, match="field"):
-        occlux.ao_volume(scene, method="sweep", field="value", device="cpu")
+        occlux.ao_volume(scene, method="sweep-physical", field="value", device="cpu")
     with pytest.raises(occlux.OccluxError, match="variance"):
-        occlux.ao_volume(scene, method="sweep", variance=True, device="cpu")
-    # The registry offers it to every reader (the add-on's Compute AO among them).
+        occlux.ao_volume(scene, method="sweep-physical", variance=True, device="cpu")
+    # The registry offers both sweeps to every reader (the add-on's Compute AO among them).
     entry = next(m for m in occlux.methods() if m["name"] == "ao")
     ao_method = next(p for p in entry["params"] if p["key"] == "ao_method")
-    assert "sweep" in [o["name"] for o in ao_method["options"]]
+    names = [o["name"] for o in ao_method["options"]]
+    assert "sweep" in names and "sweep-physical" in names
+
+
+def test_ao_volume_by_occlusion_sweeping_writes_a_level_set_and_octants(
+    tmp_path: Path, openvdb
+) -> None:
+    scene = occlux.Scene.from_toml(scene_text())
+    grids = occlux.ao_volume(scene, method="sweep", iso=0.5, octants=True, gamma=1.0)
+    assert list(grids) == ["ao", "sdf"] + [f"ao_oct{s}" for s in range(8)]
+    sdf, ao = grids["sdf"].values, grids["ao"].values
+    volume = scene.load_volume().values
+    # Negative inside (values above the iso-value), positive outside.
+    assert (sdf[volume > 0.5] <= 0).all() and (sdf[volume <= 0.5] >= 0).all()
+    assert 0.0 <= ao.min() and ao.max() <= 1.0
+    # Gamma 2 (the default) is the square root of gamma 1.
+    brighter = occlux.ao_volume(scene, method="sweep", iso=0.5)["ao"].values
+    np.testing.assert_allclose(brighter, np.sqrt(ao), atol=1e-5)
+    # The signed distance is a level set in OpenVDB, with its values.
+    path = tmp_path / "swept.vdb"
+    occlux.write_vdb(path, grids)
+    read = {grid.name: grid for grid in openvdb.readAll(str(path))[0]}
+    assert read["sdf"].gridClass == openvdb.GridClass.LEVEL_SET
+    assert read["ao"].gridClass == openvdb.GridClass.FOG_VOLUME
+    dense = np.zeros(grids["sdf"].dims, np.float32)  # indexed [i, j, k]
+    read["sdf"].copyToArray(dense, ijk=(0, 0, 0))
+    np.testing.assert_array_equal(dense, sdf.transpose(2, 1, 0))
+    # Bad input is named.
+    with pytest.raises(occlux.OccluxError, match="octant_intensities"):
+        occlux.ao_volume(scene, method="sweep", octant_intensities=[1, 1])
+    with pytest.raises(occlux.OccluxError, match="never crosses"):
+        occlux.ao_volume(scene, method="sweep", iso=5.0)
+    with pytest.raises(occlux.OccluxError, match="octants"):
+        occlux.ao_volume(scene, method="sweep-physical", octants=True)
 
 
 def test_dos_renders_expose_the_occlusion_layer_and_other_methods_none() -> None:

@@ -294,17 +294,32 @@ def export(
 
 def ao_volume(
     scene: Scene,
-    method: Literal["cdf", "gauss", "gauss-exact", "penner", "exact", "sweep"] = "cdf",
+    method: Literal[
+        "cdf", "gauss", "gauss-exact", "penner", "exact", "sweep", "sweep-physical"
+    ] = "cdf",
     radius: int = 10,
     field: Literal["extinction", "value"] = "extinction",
     variance: bool = False,
     device: _Device = "auto",
     volume: Volume | None = None,
     progress: Callable[[int, int], object] | None = None,
+    iso: float | None = None,
+    gamma: float = 2.0,
+    octant_intensities: Sequence[float] | None = None,
+    alpha: float = 1.0,
+    combined: bool = False,
+    octants: bool = False,
 ) -> dict[str, Volume]:
-    """What ``occlux ao`` computes: the VAO volume of ``scene``'s classified volume,
-    ``{"ao": openness}`` (1 = unoccluded) plus ``"ao_variance"`` when ``variance`` is true, on
-    the volume's grid, ready for :func:`write_vdb`. ``exact`` counts voxels (slow, CPU)."""
+    """What ``occlux ao`` computes: the AO volume of ``scene``'s classified volume,
+    ``{"ao": openness}`` (1 = unoccluded) on the volume's grid, ready for :func:`write_vdb`;
+    plus ``"ao_variance"`` when ``variance`` is true (VAO). ``exact`` counts voxels (slow,
+    CPU). ``sweep`` is occlusion sweeping: the AO of the iso-surface ``iso`` of the raw values
+    (without it, of the classified extinction at half its maximum) after ``gamma``, lit from
+    the eight octants with ``octant_intensities`` (``ao_oct`` order: bit 0 -x, bit 1 -y,
+    bit 2 -z), ``alpha`` < 1 for a translucent surface, ``combined`` for the octants' plain
+    mean; it adds ``"sdf"`` (signed distance, negative inside; a level set in
+    :func:`write_vdb`) and, with ``octants``, ``"ao_oct0"``..``"ao_oct7"``.
+    ``sweep-physical`` is the visibility, the mean transmittance over all directions."""
 
 def methods() -> list[dict[str, Any]]:
     """The rendering methods a scene's ``render.method`` can name (the core's registry): each

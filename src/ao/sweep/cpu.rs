@@ -6,42 +6,13 @@
 //! vectorisable loop over the row; the step along the row itself is a first-order recurrence,
 //! swept in order.
 
+use super::padded::{octant_signs, sweep_order, Padded};
 use super::{Stencil, STEPS};
 use crate::error::{Error, Result};
 use crate::progress::Progress;
 use crate::volume::Volume;
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicU64, Ordering};
-
-/// A grid with one voxel of padding on every side, x fastest.
-struct Padded {
-    dims: [usize; 3],
-    values: Vec<f32>,
-}
-
-impl Padded {
-    fn new(dims: [usize; 3], fill: f32) -> Self {
-        let [nx, ny, nz] = dims;
-        Self {
-            dims,
-            values: vec![fill; (nx + 2) * (ny + 2) * (nz + 2)],
-        }
-    }
-
-    /// Index of voxel (i, j, k) of the unpadded grid, each shifted by one.
-    #[inline]
-    fn index(&self, i: usize, j: usize, k: usize) -> usize {
-        let [nx, ny, _] = self.dims;
-        (i + 1) + (nx + 2) * ((j + 1) + (ny + 2) * (k + 1))
-    }
-
-    /// Index offset of a step (dx, dy, dz).
-    fn offset(&self, step: [i32; 3]) -> isize {
-        let [nx, ny, _] = self.dims;
-        let (px, py) = ((nx + 2) as isize, (ny + 2) as isize);
-        step[0] as isize + px * (step[1] as isize + py * step[2] as isize)
-    }
-}
 
 /// The visibility volume of `extinction` (sigma_t per world unit at each voxel centre): the
 /// mean of the eight octant visibilities, on the same grid. `progress` counts octants.
@@ -50,15 +21,7 @@ pub fn visibility(extinction: &Volume, progress: &dyn Progress) -> Result<Volume
     let dims = extinction.dims();
     let halves = HalfSteps::new(extinction, &stencil);
     let done = AtomicU64::new(0);
-    let octants: Vec<[i32; 3]> = (0..8)
-        .map(|o| {
-            [
-                1 - 2 * (o & 1),
-                1 - 2 * ((o >> 1) & 1),
-                1 - 2 * ((o >> 2) & 1),
-            ]
-        })
-        .collect();
+    let octants = octant_signs();
     let sum = octants
         .par_iter()
         .map(|&signs| {
@@ -77,18 +40,7 @@ pub fn visibility(extinction: &Volume, progress: &dyn Progress) -> Result<Volume
             Ok(a)
         })
         .unwrap_or_else(|| Err(Error::Volume("no octants".into())))?;
-    let [nx, ny, nz] = dims;
-    let mut values = Vec::with_capacity(nx * ny * nz);
-    for k in 0..nz {
-        for j in 0..ny {
-            let start = sum.index(0, j, k);
-            values.extend(
-                sum.values[start..start + nx]
-                    .iter()
-                    .map(|v| (v / 8.0).clamp(0.0, 1.0)),
-            );
-        }
-    }
+    let values = sum.unpad(|v| (v / 8.0).clamp(0.0, 1.0));
     Volume::new(dims, extinction.spacing(), extinction.origin(), values)
 }
 
@@ -102,7 +54,6 @@ struct HalfSteps {
 
 impl HalfSteps {
     fn new(extinction: &Volume, stencil: &Stencil) -> Self {
-        let [nx, ny, nz] = extinction.dims();
         let mut lengths: Vec<f32> = Vec::new();
         let of_step = stencil.lengths.map(|l| {
             lengths.iter().position(|&m| m == l).unwrap_or_else(|| {
@@ -113,17 +64,9 @@ impl HalfSteps {
         let grids = lengths
             .par_iter()
             .map(|&length| {
-                let mut grid = Padded::new([nx, ny, nz], 1.0);
-                for k in 0..nz {
-                    for j in 0..ny {
-                        let start = grid.index(0, j, k);
-                        let row = &extinction.values()[(j + ny * k) * nx..][..nx];
-                        for (t, &sigma) in grid.values[start..start + nx].iter_mut().zip(row) {
-                            *t = (-0.5 * sigma * length).exp();
-                        }
-                    }
-                }
-                grid
+                Padded::map(extinction.dims(), extinction.values(), 1.0, |sigma| {
+                    (-0.5 * sigma * length).exp()
+                })
             })
             .collect();
         Self { grids, of_step }
@@ -145,18 +88,10 @@ fn sweep_octant(
     let mut v = Padded::new(dims, 1.0);
     let steps = STEPS.map(|s| [s[0] * signs[0], s[1] * signs[1], s[2] * signs[2]]);
     let offsets = steps.map(|s| v.offset(s));
-    // Rows are swept away from the light's side: descending where the octant looks up an axis.
-    let order = |n: usize, sign: i32| -> Box<dyn Iterator<Item = usize>> {
-        if sign > 0 {
-            Box::new((0..n).rev())
-        } else {
-            Box::new(0..n)
-        }
-    };
     let mut off_row = vec![0.0f32; nx];
     let mut along = vec![0.0f32; nx];
-    for k in order(nz, signs[2]) {
-        for j in order(ny, signs[1]) {
+    for k in sweep_order(nz, signs[2]) {
+        for j in sweep_order(ny, signs[1]) {
             let start = v.index(0, j, k);
             // Steps 1..7 leave the row: their rows are already swept. One pass over the row
             // sums them in step order (as the GPU twin does).

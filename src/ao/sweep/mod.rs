@@ -39,7 +39,9 @@
 //! reads only neighbours on the one to three planes before its own.
 
 pub mod cpu;
+pub mod geometric;
 pub mod gpu;
+pub mod padded;
 pub mod sdf;
 
 use crate::error::{Error, Result};

@@ -42,6 +42,8 @@
 use crate::error::{Error, Result};
 use crate::progress::Progress;
 use crate::volume::Volume;
+use rayon::prelude::*;
+use std::sync::atomic::{AtomicU64, Ordering};
 
 /// Parameters of the signed distance.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -147,16 +149,16 @@ pub fn signed_distance(
     let mut iterations = 0;
     let mut max_change = f32::INFINITY;
     let mut converged = false;
+    let teams = sweep_teams();
+    let done = AtomicU64::new(0);
     while iterations < params.max_iterations {
-        let mut change = 0.0f32;
-        for order in 0..8 {
+        let change = grid.round(teams, h, weights, iterations, &|| {
             if progress.cancelled() {
                 return Err(Error::Cancelled);
             }
-            let signs = [order & 1 == 0, order & 2 == 0, order & 4 == 0];
-            change = change.max(grid.sweep(signs, h, weights));
-            progress.update(8 * iterations as u64 + order as u64 + 1, total);
-        }
+            progress.update(done.fetch_add(1, Ordering::Relaxed) + 1, total);
+            Ok(())
+        })?;
         iterations += 1;
         max_change = change;
         if change < params.tolerance {
@@ -198,11 +200,17 @@ pub fn signed_distance(
 }
 
 /// Unsigned distances on a grid padded by one voxel of +infinity on every side (so the
-/// neighbour minima need no bounds checks), x fastest, with the fixed (interface) voxels marked.
+/// neighbour minima need no bounds checks), x fastest, with the fixed (interface) voxels marked
+/// and, per row, the last round in which one of its voxels changed.
 struct Grid {
     dims: [usize; 3],
     u: Vec<f32>,
     fixed: Vec<bool>,
+    /// Per padded row (j + 1) + (ny + 2) (k + 1): 1 + the last round a voxel of it decreased
+    /// in (0: never; saturating). A row none of whose own and four neighbouring rows changed
+    /// in this round or the last cannot change now: its update reads only those rows, and
+    /// their values are what it last saw. Later rounds, which mostly confirm, skip such rows.
+    changed: Vec<u8>,
 }
 
 impl Grid {
@@ -212,6 +220,7 @@ impl Grid {
             dims,
             u: vec![f32::INFINITY; len],
             fixed: vec![false; len],
+            changed: vec![0; (dims[1] + 2) * (dims[2] + 2)],
         }
     }
 
@@ -221,57 +230,185 @@ impl Grid {
         (i + 1) + (nx + 2) * ((j + 1) + (ny + 2) * (k + 1))
     }
 
-    /// One Gauss-Seidel sweep, each axis ascending where its sign is true; returns the largest
-    /// decrease of any voxel (infinite where a voxel got its first value).
-    fn sweep(&mut self, ascending: [bool; 3], h: [f32; 3], w: [f32; 3]) -> f32 {
-        let [nx, ny, nz] = self.dims;
-        let sy = nx + 2;
-        let sz = sy * (ny + 2);
-        let mut change = 0.0f32;
-        // Neighbour minima across y and z for one row: those rows are not written while this
-        // row is swept, so this part runs as plain loops over contiguous memory.
-        let mut ay = vec![0.0f32; nx];
-        let mut az = vec![0.0f32; nx];
-        for kk in 0..nz {
-            let k = if ascending[2] { kk } else { nz - 1 - kk };
-            for jj in 0..ny {
-                let j = if ascending[1] { jj } else { ny - 1 - jj };
-                let start = self.index(0, j, k);
-                {
-                    let u = &self.u;
-                    let (below, above) = (&u[start - sy..][..nx], &u[start + sy..][..nx]);
-                    for ((a, &p), &q) in ay.iter_mut().zip(below).zip(above) {
-                        *a = p.min(q);
-                    }
-                    let (below, above) = (&u[start - sz..][..nx], &u[start + sz..][..nx]);
-                    for ((a, &p), &q) in az.iter_mut().zip(below).zip(above) {
-                        *a = p.min(q);
-                    }
-                }
-                // Along the row: each voxel reads the one just updated (Gauss-Seidel).
-                let row = &mut self.u[start - 1..start + nx + 1];
-                let fixed = &self.fixed[start..start + nx];
-                let mut visit = |i: usize| {
-                    if fixed[i] {
-                        return;
-                    }
-                    let ax = row[i].min(row[i + 2]);
-                    let old = row[i + 1];
-                    let new = solve([ax, ay[i], az[i]], h, w);
-                    if new < old {
-                        row[i + 1] = new;
-                        change = change.max(old - new);
-                    }
-                };
-                if ascending[0] {
-                    (0..nx).for_each(&mut visit);
-                } else {
-                    (0..nx).rev().for_each(&mut visit);
-                }
+    /// One round: the eight sweeps, shared among `teams` (1, 2, 4 or 8) that each sweep their
+    /// orders on their own copy of the distances, merged by the minimum at the end (Zhao's
+    /// parallel fast sweeping, 2007: the same fixed point, sometimes a round more). Returns the
+    /// largest decrease of any voxel; `step` runs after every sweep (progress, cancelling).
+    fn round(
+        &mut self,
+        teams: usize,
+        h: [f32; 3],
+        w: [f32; 3],
+        round: u32,
+        step: &(dyn Fn() -> Result<()> + Sync),
+    ) -> Result<f32> {
+        let orders_per_team = 8 / teams;
+        let dims = self.dims;
+        let fixed = &self.fixed;
+        let run = |team: usize, u: &mut [f32], changed: &mut [u8]| -> Result<f32> {
+            let mut change = 0.0f32;
+            for order in team * orders_per_team..(team + 1) * orders_per_team {
+                let signs = [order & 1 == 0, order & 2 == 0, order & 4 == 0];
+                change = change.max(sweep(dims, fixed, u, changed, signs, h, w, round));
+                step()?;
+            }
+            Ok(change)
+        };
+        if teams == 1 {
+            return run(0, &mut self.u, &mut self.changed);
+        }
+        let mut copies: Vec<(Vec<f32>, Vec<u8>)> = (1..teams)
+            .map(|_| (self.u.clone(), self.changed.clone()))
+            .collect();
+        let (first, others) = rayon::join(
+            || run(0, &mut self.u, &mut self.changed),
+            || {
+                copies
+                    .par_iter_mut()
+                    .enumerate()
+                    .map(|(t, (u, changed))| run(t + 1, u, changed))
+                    .collect::<Result<Vec<f32>>>()
+            },
+        );
+        let mut change = first?;
+        for c in others? {
+            change = change.max(c);
+        }
+        for (u, changed) in &copies {
+            self.u
+                .par_iter_mut()
+                .zip(u)
+                .for_each(|(mine, theirs)| *mine = mine.min(*theirs));
+            for (mine, theirs) in self.changed.iter_mut().zip(changed) {
+                *mine = (*mine).max(*theirs);
             }
         }
-        change
+        Ok(change)
     }
+}
+
+/// How many copies sweep a round in parallel: the largest of 1, 2 and 4 within the threads
+/// (each team past the first holds a copy of the grid).
+fn sweep_teams() -> usize {
+    match rayon::current_num_threads() {
+        0 | 1 => 1,
+        2 | 3 => 2,
+        _ => 4,
+    }
+}
+
+/// One Gauss-Seidel sweep of round `round` over `u` (a grid's padded distances, with its
+/// `changed` stamps), each axis ascending where its sign is true; returns the largest decrease
+/// of any voxel (infinite where a voxel got its first value).
+///
+/// Along a row each voxel reads the one just updated, a chain of dependent solves that
+/// would bound the speed. So the row is done in two passes: first, independently per voxel
+/// (a loop the core overlaps), the solution v from the y and z neighbours alone; then, in
+/// order, the x neighbour a_x is taken in only where a_x < v. That is exact: Godunov's
+/// update uses only neighbours below the solution, so where a_x >= v, v solves the full
+/// update too.
+#[allow(clippy::too_many_arguments)] // the grid's parts and the sweep's order
+fn sweep(
+    dims: [usize; 3],
+    fixed: &[bool],
+    u: &mut [f32],
+    changed: &mut [u8],
+    ascending: [bool; 3],
+    h: [f32; 3],
+    w: [f32; 3],
+    round: u32,
+) -> f32 {
+    let [nx, ny, nz] = dims;
+    let sy = nx + 2;
+    let sz = sy * (ny + 2);
+    let rows_y = ny + 2;
+    let recent = round.min(u8::MAX as u32) as u8;
+    let stamp = (round + 1).min(u8::MAX as u32) as u8;
+    let mut change = 0.0f32;
+    let mut ay = vec![0.0f32; nx];
+    let mut az = vec![0.0f32; nx];
+    let mut across = vec![0.0f32; nx];
+    for kk in 0..nz {
+        let k = if ascending[2] { kk } else { nz - 1 - kk };
+        for jj in 0..ny {
+            let j = if ascending[1] { jj } else { ny - 1 - jj };
+            let row_at = (j + 1) + rows_y * (k + 1);
+            let neighbours = [
+                row_at,
+                row_at - 1,
+                row_at + 1,
+                row_at - rows_y,
+                row_at + rows_y,
+            ];
+            if round > 0 && neighbours.iter().all(|&r| changed[r] < recent) {
+                continue;
+            }
+            let start = (j + 1) * sy + (k + 1) * sz + 1;
+            // Neighbour minima across y and z, and the solution from them alone: those
+            // rows are not written while this row is swept.
+            {
+                let (below, above) = (&u[start - sy..][..nx], &u[start + sy..][..nx]);
+                for ((a, &p), &q) in ay.iter_mut().zip(below).zip(above) {
+                    *a = p.min(q);
+                }
+                let (below, above) = (&u[start - sz..][..nx], &u[start + sz..][..nx]);
+                for ((a, &p), &q) in az.iter_mut().zip(below).zip(above) {
+                    *a = p.min(q);
+                }
+                for ((v, &b), &c) in across.iter_mut().zip(&ay).zip(&az) {
+                    *v = solve_pair([b, c], [h[1], h[2]], [w[1], w[2]]);
+                }
+            }
+            // Along the row, in order: the x neighbour where it lies below.
+            let row = &mut u[start - 1..start + nx + 1];
+            let fixed = &fixed[start..start + nx];
+            let mut row_change = 0.0f32;
+            let mut visit = |i: usize| {
+                if fixed[i] {
+                    return;
+                }
+                let ax = row[i].min(row[i + 2]);
+                let new = if ax < across[i] {
+                    solve([ax, ay[i], az[i]], h, w)
+                } else {
+                    across[i]
+                };
+                let old = row[i + 1];
+                if new < old {
+                    row[i + 1] = new;
+                    row_change = row_change.max(old - new);
+                }
+            };
+            if ascending[0] {
+                (0..nx).for_each(&mut visit);
+            } else {
+                (0..nx).rev().for_each(&mut visit);
+            }
+            if row_change > 0.0 {
+                changed[row_at] = stamp;
+                change = change.max(row_change);
+            }
+        }
+    }
+    change
+}
+
+/// Zhao's update from two neighbours (the y and z ones): [`solve`] with the third at infinity.
+#[inline]
+fn solve_pair(a: [f32; 2], h: [f32; 2], w: [f32; 2]) -> f32 {
+    let (a0, h0, w0, a1, w1) = if a[0] <= a[1] {
+        (a[0], h[0], w[0], a[1], w[1])
+    } else {
+        (a[1], h[1], w[1], a[0], w[0])
+    };
+    let u = a0 + h0;
+    if u <= a1 {
+        return u;
+    }
+    let b1 = a1 - a0;
+    let s = w0 + w1;
+    let disc = s - w0 * w1 * b1 * b1;
+    a0 + (w1 * b1 + disc.max(0.0).sqrt()) / s
 }
 
 /// Zhao's local solver: the u >= min a with sum_i max(u - a_i, 0)^2 / h_i^2 = 1, the Godunov

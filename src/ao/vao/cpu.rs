@@ -42,8 +42,5 @@ pub fn ao_volume(
     } else {
         None
     };
-    Ok(AoVolume {
-        openness: grid(open)?,
-        variance,
-    })
+    Ok(AoVolume::new(grid(open)?, variance))
 }

@@ -210,14 +210,15 @@ pub fn ao_volume(
     shader::dispatch(ctx, &pipeline, &bind, workgroups)?;
     let f = &field.values;
     let grid = |v| Volume::new(f.dims(), f.spacing(), f.origin(), v);
-    Ok(AoVolume {
-        openness: grid(buffer::read_buffer(ctx, &open)?)?,
-        variance: if params.variance {
-            Some(grid(buffer::read_buffer(ctx, &variance)?)?)
-        } else {
-            None
-        },
-    })
+    let variance = if params.variance {
+        Some(grid(buffer::read_buffer(ctx, &variance)?)?)
+    } else {
+        None
+    };
+    Ok(AoVolume::new(
+        grid(buffer::read_buffer(ctx, &open)?)?,
+        variance,
+    ))
 }
 
 #[cfg(test)]

@@ -168,10 +168,26 @@ impl VaoParams {
 }
 
 /// An AO volume: openness in [0, 1] per voxel (1 = unoccluded) and, on request, the local
-/// variance of the field, both on the field's grid.
+/// variance of the field (VAO), the signed distance and the eight octant visibilities (the
+/// geometric sweep), all on the field's grid.
 pub struct AoVolume {
     pub openness: Volume,
     pub variance: Option<Volume>,
+    pub sdf: Option<Volume>,
+    /// Empty unless asked for; else V_s of octant s ([`crate::ao::sweep::padded`]'s order).
+    pub octants: Vec<Volume>,
+}
+
+impl AoVolume {
+    /// Openness and, if computed, the variance.
+    pub fn new(openness: Volume, variance: Option<Volume>) -> Self {
+        Self {
+            openness,
+            variance,
+            sdf: None,
+            octants: Vec::new(),
+        }
+    }
 }
 
 /// Computes the AO volume of `field` on the chosen device. The exact estimator is a reference
@@ -185,10 +201,7 @@ pub fn ao_volume(
     params.validate()?;
     if params.estimator == Estimator::Exact {
         let openness = exact::exact_volume(field, params.radius, progress)?;
-        return Ok(AoVolume {
-            openness,
-            variance: None,
-        });
+        return Ok(AoVolume::new(openness, None));
     }
     let map = field.unit_map();
     let mut ao = match compute {
