@@ -60,6 +60,18 @@ def _range_text(param: dict) -> str:
     return f"in {low}{lo}, {hi}{high}"
 
 
+def _registry_float(name: str, param: dict, precision: int):
+    """A float property for a registry parameter: its doc and range as the description, its
+    limits (open bounds closed at `precision` decimals) and its default."""
+    return FloatProperty(
+        name=name,
+        description=f"{param['doc']}, {_range_text(param)}",
+        **_limits(param, precision=precision),
+        precision=precision,
+        default=param["default"],
+    )
+
+
 RAW_TYPES = ("uint8", "int8", "uint16", "int16", "uint32", "int32", "float32", "float64")
 
 
@@ -150,20 +162,8 @@ class OccluxSettings(bpy.types.PropertyGroup):
         soft_max=min(64, AO["ao_radius"]["range"]["max"] or 64),
         default=AO["ao_radius"]["default"],
     )
-    ao_gamma: FloatProperty(
-        name="AO gamma",
-        description=f"{AO['ao_gamma']['doc']}, {_range_text(AO['ao_gamma'])}",
-        **_limits(AO["ao_gamma"], precision=2),
-        precision=2,
-        default=AO["ao_gamma"]["default"],
-    )
-    ao_alpha: FloatProperty(
-        name="Surface opacity",
-        description=f"{AO['ao_alpha']['doc']}, {_range_text(AO['ao_alpha'])}",
-        **_limits(AO["ao_alpha"], precision=2),
-        precision=2,
-        default=AO["ao_alpha"]["default"],
-    )
+    ao_gamma: _registry_float("AO gamma", AO["ao_gamma"], precision=2)
+    ao_alpha: _registry_float("Surface opacity", AO["ao_alpha"], precision=2)
     ao_light: EnumProperty(
         name="AO light",
         description=AO["ao_light"]["doc"],
@@ -188,13 +188,7 @@ class OccluxSettings(bpy.types.PropertyGroup):
         default=1.0,
         update=_update_ao_factor,
     )
-    dos_theta_deg: FloatProperty(
-        name="Cone angle",
-        description=f"{DOS['theta_deg']['doc']}, {_range_text(DOS['theta_deg'])}",
-        **_limits(DOS["theta_deg"], precision=1),  # [0, 90): max 89.9
-        precision=1,
-        default=DOS["theta_deg"]["default"],
-    )
+    dos_theta_deg: _registry_float("Cone angle", DOS["theta_deg"], precision=1)  # max 89.9
     dos_grid: IntProperty(
         name="Cone samples",
         description=f"{DOS['grid']['doc']}, {_range_text(DOS['grid'])}",

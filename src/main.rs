@@ -381,12 +381,7 @@ fn run(cli: Cli) -> occlux::Result<()> {
             half,
         } => {
             let intensities = match octant_intensities {
-                Some(list) => <[f32; 8]>::try_from(list).map_err(|list| {
-                    occlux::Error::param(
-                        "octant_intensities",
-                        format!("eight values are needed, got {}", list.len()),
-                    )
-                })?,
+                Some(list) => GeometricParams::intensities_from(&list)?,
                 None => [1.0; 8],
             };
             let params = AoVolumeParams {

@@ -48,13 +48,8 @@ pub fn ao_volume<'py>(
     octants: bool,
 ) -> PyResult<Bound<'py, PyDict>> {
     let intensities = match octant_intensities {
+        Some(list) => GeometricParams::intensities_from(&list).map_err(py_err)?,
         None => [1.0; 8],
-        Some(list) => <[f32; 8]>::try_from(list).map_err(|list| {
-            py_err(occlux::Error::param(
-                "octant_intensities",
-                format!("eight values are needed, got {}", list.len()),
-            ))
-        })?,
     };
     let params = AoVolumeParams {
         method: method.parse().map_err(py_err)?,

@@ -75,6 +75,16 @@ impl Default for GeometricParams {
 }
 
 impl GeometricParams {
+    /// The eight octants' intensities from a list (as the command line and Python give them).
+    pub fn intensities_from(list: &[f32]) -> Result<[f32; 8]> {
+        <[f32; 8]>::try_from(list).map_err(|_| {
+            Error::param(
+                "octant_intensities",
+                format!("eight values are needed, got {}", list.len()),
+            )
+        })
+    }
+
     /// Checks the ranges above; errors name the parameter.
     pub fn validate(&self) -> Result<()> {
         if !(self.gamma.is_finite() && (0.1..=10.0).contains(&self.gamma)) {

@@ -396,11 +396,19 @@ fn sweep(
 /// Zhao's update from two neighbours (the y and z ones): [`solve`] with the third at infinity.
 #[inline]
 fn solve_pair(a: [f32; 2], h: [f32; 2], w: [f32; 2]) -> f32 {
-    let (a0, h0, w0, a1, w1) = if a[0] <= a[1] {
-        (a[0], h[0], w[0], a[1], w[1])
+    if a[0] <= a[1] {
+        solve_sorted_pair((a[0], h[0], w[0]), (a[1], w[1]))
     } else {
-        (a[1], h[1], w[1], a[0], w[0])
-    };
+        solve_sorted_pair((a[1], h[1], w[1]), (a[0], w[0]))
+    }
+}
+
+/// The 1D or 2D update from neighbours a0 <= a1 (with a0's spacing h0 and the weights
+/// w = 1 / h^2): a0 + h0 if that is at most a1, else the root of
+/// sum_{i <= 1} w_i (u - a_i)^2 = 1, computed relative to a0 for precision (the discriminant
+/// by Lagrange's identity, w0 + w1 - w0 w1 (a1 - a0)^2, is at least w0 there since a1 - a0 < h0).
+#[inline]
+fn solve_sorted_pair((a0, h0, w0): (f32, f32, f32), (a1, w1): (f32, f32)) -> f32 {
     let u = a0 + h0;
     if u <= a1 {
         return u;
@@ -429,21 +437,13 @@ pub fn solve(a: [f32; 3], h: [f32; 3], w: [f32; 3]) -> f32 {
         p.swap(0, 1);
     }
     let [(a0, h0, w0), (a1, _, w1), (a2, _, w2)] = p;
-    // 1D: the nearest neighbour alone.
-    let u = a0 + h0;
-    if u <= a1 {
-        return u;
-    }
-    // 2D, relative to a0 for precision: sum w_i (v - b_i)^2 = 1, v = u - a0, b_i = a_i - a0;
-    // the discriminant by Lagrange's identity, A - w0 w1 b1^2, is at least w0 here (b1 < h0).
-    let b1 = a1 - a0;
-    let s = w0 + w1;
-    let disc = s - w0 * w1 * b1 * b1;
-    let u = a0 + (w1 * b1 + disc.max(0.0).sqrt()) / s;
+    // 1D, then 2D.
+    let u = solve_sorted_pair((a0, h0, w0), (a1, w1));
     if u <= a2 {
         return u;
     }
     // 3D.
+    let b1 = a1 - a0;
     let b2 = a2 - a0;
     let s = w0 + w1 + w2;
     let d12 = b2 - b1;
