@@ -70,7 +70,7 @@ fn sdf_sphere_cubic_spacing_within_first_order_bound() {
     // away from it (0.66 h at 27 h outside) and towards the centre (the converging front).
     assert!(max < 1.1, "max error {max} h");
     assert!(rms < 0.32, "RMS error {rms} h");
-    // 3 rounds sequentially; parallel teams may need a fourth.
+    // 3 rounds sequentially; two parallel teams may need a fourth.
     assert!(r.converged && r.iterations <= 4, "{} rounds", r.iterations);
 }
 
@@ -89,8 +89,8 @@ fn sdf_sphere_anisotropic_spacing_within_first_order_bound() {
     // Measured: max 0.58 h, RMS 0.27 h.
     assert!(max / h < 0.65, "max error {} h", max / h);
     assert!(rms / h < 0.3, "RMS error {} h", rms / h);
-    // Sequential sweeps converge in 3 rounds here; sweeps shared among parallel teams (2 or
-    // more threads) may need a fourth.
+    // Sequential sweeps converge in 3 rounds here; sweeps shared among two parallel teams
+    // may need a fourth.
     assert!(r.converged && r.iterations <= 4, "{} rounds", r.iterations);
 
     // Strongly non-cubic spacing 0.5 x 1 x 3 (the radius only 4 voxels along z): finite, right

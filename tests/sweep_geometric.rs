@@ -209,3 +209,32 @@ fn bad_input_gets_named_errors_and_hard_cases_stay_finite() {
     .to_string();
     assert!(e.contains("gamma"), "{e}");
 }
+
+#[test]
+fn both_sweeps_give_the_same_bytes_with_one_and_two_threads() {
+    // Work is shared among fixed teams and groups, never by thread count.
+    let field = phantom::box_and_sphere([40, 40, 32]).unwrap();
+    let extinction = Volume::new(
+        field.dims(),
+        field.spacing(),
+        field.origin(),
+        field.values().iter().map(|v| 8.0 * v).collect(),
+    )
+    .unwrap();
+    let run_with = |threads: usize| {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap();
+        pool.install(|| {
+            let o = run(&field, 0.5, &GeometricParams::default());
+            let physical = occlux::ao::sweep::cpu::visibility(&extinction, &NoProgress).unwrap();
+            let bits = |v: &Volume| v.values().iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+            (bits(&o.sdf.sdf), bits(&o.ao), bits(&physical))
+        })
+    };
+    let (one, two) = (run_with(1), run_with(2));
+    assert!(one.0 == two.0, "signed distance");
+    assert!(one.1 == two.1, "geometric AO");
+    assert!(one.2 == two.2, "physical visibility");
+}

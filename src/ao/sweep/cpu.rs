@@ -21,27 +21,39 @@ pub fn visibility(extinction: &Volume, progress: &dyn Progress) -> Result<Volume
     let dims = extinction.dims();
     let halves = HalfSteps::new(extinction, &stencil);
     let done = AtomicU64::new(0);
-    let octants = octant_signs();
-    let sum = octants
-        .par_iter()
-        .map(|&signs| {
-            if progress.cancelled() {
-                return Err(Error::Cancelled);
-            }
-            let v = sweep_octant(dims, &halves, &stencil, signs);
-            progress.update(done.fetch_add(1, Ordering::Relaxed) + 1, 8);
-            Ok(v)
-        })
-        .try_reduce_with(|mut a, b| {
-            a.values
-                .iter_mut()
-                .zip(&b.values)
-                .for_each(|(x, y)| *x += y);
-            Ok(a)
-        })
-        .unwrap_or_else(|| Err(Error::Volume("no octants".into())))?;
+    let octant = |o: usize| -> Result<Padded> {
+        if progress.cancelled() {
+            return Err(Error::Cancelled);
+        }
+        let v = sweep_octant(dims, &halves, &stencil, octant_signs()[o]);
+        progress.update(done.fetch_add(1, Ordering::Relaxed) + 1, 8);
+        Ok(v)
+    };
+    let sum = sum_of(0..8, &octant)?;
     let values = sum.unpad(|v| (v / 8.0).clamp(0.0, 1.0));
     Volume::new(dims, extinction.spacing(), extinction.origin(), values)
+}
+
+/// The sum of the octants in `range`, halves in parallel and added in a fixed tree
+/// ((0 + 1) + (2 + 3)) + ((4 + 5) + (6 + 7)): the same bytes with any number of threads.
+fn sum_of(
+    range: std::ops::Range<usize>,
+    octant: &(dyn Fn(usize) -> Result<Padded> + Sync),
+) -> Result<Padded> {
+    if range.len() == 1 {
+        return octant(range.start);
+    }
+    let middle = range.start + range.len() / 2;
+    let (left, right) = rayon::join(
+        || sum_of(range.start..middle, octant),
+        || sum_of(middle..range.end, octant),
+    );
+    let (mut left, right) = (left?, right?);
+    left.values
+        .par_iter_mut()
+        .zip(&right.values)
+        .for_each(|(x, y)| *x += y);
+    Ok(left)
 }
 
 /// exp(-sigma_t |n| / 2) per voxel for each distinct step length (a cubic grid has three:
