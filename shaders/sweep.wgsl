@@ -1,4 +1,6 @@
-// The occlusion sweep's visibility (src/ao/sweep/gpu.rs, GPU twin of src/ao/sweep/cpu.rs).
+// Occlusion sweeping on the GPU (src/ao/sweep/gpu.rs): the physical mode's visibility (twin of
+// src/ao/sweep/cpu.rs) and the geometric mode's octants and shading (twin of the octant part
+// of src/ao/sweep/geometric.rs; its signed distance and surface terms come from the CPU).
 //
 // Grids are padded with one voxel of empty space on every side, x fastest, as on the CPU:
 // padded voxel (i + 1, j + 1, k + 1) holds voxel (i, j, k). Four kernels, in this order:
@@ -13,6 +15,12 @@
 //   planes run one dispatch each, in order;
 // - sweep_average: the group's octants added into the sum, which the last group divides by 8
 //   and clamps to [0, 1].
+// The geometric mode (`geometric` = 1) binds the padded transmittance from distance as every
+// half-step grid, weighs the three faces 1/3 and the rest 0, and takes each term as
+// w * tau(x + n) * V(x + n) (the paper's Eq. 6: the light that crossed the neighbour); then
+// - sweep_shade: the group's octants, each read one voxel out along the normal (the cell's
+//   step) and weighed by its intensity and its geometry term (bilinear in the table), added
+//   into the sum; the last group clamps it to [0, 1] and raises it to 1 / gamma.
 
 // Mirrored by ao::sweep::gpu::Params.
 struct Params {
@@ -38,6 +46,13 @@ struct Params {
     plane: u32,
     // Invocations per row of a 1D kernel's 2D dispatch grid.
     row_width: u32,
+    // 1: the geometric mode (terms w * tau(x + n) * V(x + n)); 0: the physical mode.
+    geometric: u32,
+    // sweep_shade: 1 / gamma.
+    inverse_gamma: f32,
+    // sweep_shade: the intensities of octants 0..3 and 4..7.
+    intensities_low: vec4<f32>,
+    intensities_high: vec4<f32>,
 };
 
 @group(0) @binding(0) var<uniform> params: Params;
@@ -54,8 +69,18 @@ struct Params {
 @group(0) @binding(8) var<storage, read> half4: array<f32>;
 @group(0) @binding(9) var<storage, read> half5: array<f32>;
 @group(0) @binding(10) var<storage, read> half6: array<f32>;
-// sweep_average: the running sum, then the visibility (unpadded).
+// sweep_average, sweep_shade: the running sum, then the visibility or AO (unpadded).
 @group(0) @binding(11) var<storage, read_write> sum: array<f32>;
+// sweep_shade: per voxel its surface terms, three words: the table texel, the bilinear
+// fractions (two u16 in 1/65535, the first in the low half), the padded index step to the
+// voxel the octants are read at (i32); and the geometry table, eight terms per texel.
+@group(0) @binding(12) var<storage, read> cells: array<u32>;
+@group(0) @binding(13) var<storage, read> geometry: array<f32>;
+
+// Texels per side of the geometry table (ao::sweep::geometric::TABLE_SIDE).
+const TABLE_SIDE: u32 = 65u;
+// A cell without a normal: each octant takes 1/8.
+const NO_NORMAL: u32 = 0xffffffffu;
 
 fn padded_dims() -> vec3<u32> {
     return params.dims + vec3<u32>(2u);
@@ -98,8 +123,12 @@ fn sweep_fill(@builtin(global_invocation_id) id: vec3<u32>) {
     }
 }
 
-// One term w * h_n(x) * h_n(x + n) * V(x + n), multiplied in the CPU's order.
+// One term w * h_n(x) * h_n(x + n) * V(x + n), multiplied in the CPU's order; in the
+// geometric mode w * tau(x + n) * V(x + n).
 fn term(weight: f32, here: f32, there: f32, seen: f32) -> f32 {
+    if (params.geometric == 1u) {
+        return weight * there * seen;
+    }
     return weight * here * there * seen;
 }
 
@@ -154,7 +183,10 @@ fn sweep_plane(@builtin(global_invocation_id) id: vec3<u32>) {
     y = u32(i32(x) + sx + sy + sz);
     off = off + term(params.corner_weight, half6[x], half6[y], visibility[base + y]);
     y = u32(i32(x) + sx);
-    let along = fw.x * half0[x] * half0[y];
+    var along = fw.x * half0[x] * half0[y];
+    if (params.geometric == 1u) {
+        along = fw.x * half0[y];
+    }
     visibility[base + x] = off + along * visibility[base + y];
 }
 
@@ -176,6 +208,52 @@ fn sweep_average(@builtin(global_invocation_id) id: vec3<u32>) {
     }
     if (params.first_octant + params.octants == 8u) {
         acc = clamp(acc / 8.0, 0.0, 1.0);
+    }
+    sum[index] = acc;
+}
+
+// G_s of octant s at a voxel's cell, as GeometryTable::share.
+fn geometry_share(texel: u32, fractions: u32, s: u32) -> f32 {
+    if (texel == NO_NORMAL) {
+        return 0.125;
+    }
+    let fx = f32(fractions & 0xffffu) / 65535.0;
+    let fy = f32(fractions >> 16u) / 65535.0;
+    let a = geometry[texel * 8u + s];
+    let b = geometry[(texel + 1u) * 8u + s];
+    let c = geometry[(texel + TABLE_SIDE) * 8u + s];
+    let d = geometry[(texel + TABLE_SIDE + 1u) * 8u + s];
+    let bottom = a + (b - a) * fx;
+    let top = c + (d - c) * fx;
+    return bottom + (top - bottom) * fy;
+}
+
+@compute @workgroup_size(64, 1, 1)
+fn sweep_shade(@builtin(global_invocation_id) id: vec3<u32>) {
+    let index = item(id);
+    let dims = params.dims;
+    if (index >= dims.x * dims.y * dims.z) {
+        return;
+    }
+    let v = vec3<u32>(index % dims.x, (index / dims.x) % dims.y, index / (dims.x * dims.y));
+    let texel = cells[3u * index];
+    let fractions = cells[3u * index + 1u];
+    let at = u32(i32(padded_index(v)) + bitcast<i32>(cells[3u * index + 2u]));
+    var acc = 0.0;
+    if (params.first_octant > 0u) {
+        acc = sum[index];
+    }
+    for (var o = 0u; o < params.octants; o = o + 1u) {
+        let s = params.first_octant + o;
+        var intensity = params.intensities_low[s & 3u];
+        if (s >= 4u) {
+            intensity = params.intensities_high[s & 3u];
+        }
+        let seen = visibility[o * params.padded_voxels + at];
+        acc = acc + intensity * geometry_share(texel, fractions, s) * seen;
+    }
+    if (params.first_octant + params.octants == 8u) {
+        acc = pow(clamp(acc, 0.0, 1.0), params.inverse_gamma);
     }
     sum[index] = acc;
 }

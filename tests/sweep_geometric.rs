@@ -6,6 +6,7 @@ use glam::Vec3;
 use occlux::ao::surface_reference::{surface_ao, surface_points};
 use occlux::ao::sweep::geometric::{occlusion, GeometricParams, Occlusion, SKY};
 use occlux::ao::sweep::sdf::SdfParams;
+use occlux::gpu::Compute;
 use occlux::progress::NoProgress;
 use occlux::volume::{phantom, Volume};
 
@@ -25,7 +26,15 @@ fn linear() -> GeometricParams {
 }
 
 fn run(field: &Volume, iso: f32, params: &GeometricParams) -> Occlusion {
-    let o = occlusion(field, &surface(iso), params, true, &NoProgress).unwrap();
+    let o = occlusion(
+        &Compute::Cpu,
+        field,
+        &surface(iso),
+        params,
+        true,
+        &NoProgress,
+    )
+    .unwrap();
     for v in [&o.ao, &o.sdf.sdf]
         .into_iter()
         .chain(o.octants.iter().flatten())
@@ -176,10 +185,17 @@ fn gamma_sky_and_translucency_shape_the_ao() {
 fn bad_input_gets_named_errors_and_hard_cases_stay_finite() {
     // A constant volume has no surface.
     let flat = Volume::new([8, 8, 8], Vec3::ONE, Vec3::ZERO, vec![0.3; 512]).unwrap();
-    let err = occlusion(&flat, &surface(0.5), &linear(), false, &NoProgress)
-        .err()
-        .unwrap()
-        .to_string();
+    let err = occlusion(
+        &Compute::Cpu,
+        &flat,
+        &surface(0.5),
+        &linear(),
+        false,
+        &NoProgress,
+    )
+    .err()
+    .unwrap()
+    .to_string();
     assert!(err.contains("never crosses"), "{err}");
     // A single-voxel-thick shell and strongly non-cubic spacing: finite, within [0, 1].
     let shell = Volume::from_fn([24, 24, 24], Vec3::new(0.5, 1.0, 2.0), Vec3::ZERO, |p| {
@@ -195,6 +211,7 @@ fn bad_input_gets_named_errors_and_hard_cases_stay_finite() {
     assert!(o.ao.values().iter().all(|a| (0.0..=1.0).contains(a)));
     // Out-of-range shading parameters are named.
     let e = occlusion(
+        &Compute::Cpu,
         &shell,
         &surface(0.5),
         &GeometricParams {

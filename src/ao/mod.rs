@@ -30,7 +30,8 @@ pub enum AoMethod {
     /// Openness from the local statistics of the tangent sphere (the VAO paper).
     Vao(Estimator),
     /// Occlusion sweeping's geometric mode: the ambient occlusion of an iso-surface from its
-    /// signed distance ([`sweep::geometric`]), at any range; CPU.
+    /// signed distance ([`sweep::geometric`]), at any range; the signed distance on the CPU,
+    /// the octants on CPU and GPU twins.
     Sweep,
     /// Occlusion sweeping's physical mode: the visibility, the mean transmittance of the
     /// classified extinction over all directions ([`sweep`]), at any range; CPU and GPU twins.
@@ -52,10 +53,9 @@ impl AoMethod {
         }
     }
 
-    /// Whether it runs on the CPU whatever the device (the exact count, a reference; the
-    /// geometric sweep, whose signed distance is sequential Gauss-Seidel).
+    /// Whether it runs on the CPU whatever the device (the exact count, a reference).
     pub fn cpu_only(self) -> bool {
-        matches!(self, AoMethod::Vao(Estimator::Exact) | AoMethod::Sweep)
+        self == AoMethod::Vao(Estimator::Exact)
     }
 }
 
@@ -204,7 +204,7 @@ impl AoVolumeParams {
 
 /// The AO volume of a classified volume: `openness` (1 = unoccluded) on its grid, and the
 /// local variance, signed distance and octant visibilities when the method gives them, on
-/// `compute` (VAO's exact count and the geometric sweep always on the CPU).
+/// `compute` (VAO's exact count always on the CPU, the geometric sweep's signed distance too).
 pub fn ao_volume(
     compute: &Compute,
     volume: &Volume,
@@ -220,6 +220,7 @@ pub fn ao_volume(
     if params.method == AoMethod::Sweep {
         let (field, surface) = params.surface(volume, classification)?;
         let swept = sweep::geometric::occlusion(
+            compute,
             &field,
             &surface,
             &params.geometric,

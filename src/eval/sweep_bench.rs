@@ -8,6 +8,7 @@ use super::bench::{timed, Timing};
 use crate::ao::sweep::geometric::{occlusion, GeometricParams};
 use crate::ao::sweep::sdf::{signed_distance, SdfParams};
 use crate::error::{Error, Result};
+use crate::gpu::Compute;
 use crate::progress::NoProgress;
 use crate::volume::phantom::box_and_sphere;
 use serde::Serialize;
@@ -84,7 +85,14 @@ pub fn run(args: &SweepBenchArgs, quiet: bool) -> Result<()> {
                 ..Default::default()
             };
             timed(args.repeats, || {
-                occlusion(&volume, &surface, &params, false, &NoProgress)
+                occlusion(
+                    &Compute::Cpu,
+                    &volume,
+                    &surface,
+                    &params,
+                    false,
+                    &NoProgress,
+                )
             })
         };
         let (combined, octants) = (with(false)?, with(true)?);

@@ -27,8 +27,11 @@
 //! 5. AO^(1 / gamma) as a post-process (gamma 2 by default, the paper's choice to brighten the
 //!    sweep's darkening).
 //!
-//! CPU only: the signed distance is Gauss-Seidel (sequential within a sweep; its eight orders
-//! shared among parallel teams), the octant sweeps run in two parallel groups of four.
+//! Twins: the signed distance and the surface terms on the CPU (Gauss-Seidel, its eight orders
+//! shared between two teams), then the octants and the shading on the CPU (two parallel
+//! groups of four octants) or the GPU (shaders/sweep.wgsl, the physical mode's plane kernel
+//! with the paper's terms, then `sweep_shade`); they agree within 1e-4
+//! (tests/sweep_twins.rs).
 //!
 //! The three-neighbour average follows the octant's diagonal and blurs directions (the paper's
 //! diagonal streaks); the physical mode ([`super::cpu`]) uses seven neighbours and real
@@ -37,8 +40,10 @@
 use super::padded::{octant_signs, sweep_order, Padded};
 use super::sdf::{signed_distance, SdfParams, SdfResult};
 use crate::error::{Error, Result};
+use crate::gpu::Compute;
 use crate::progress::{NoProgress, Progress};
 use crate::volume::Volume;
+use bytemuck::{Pod, Zeroable};
 use glam::{DVec3, Vec2, Vec3};
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicU64, Ordering};
@@ -136,8 +141,10 @@ pub struct Occlusion {
 }
 
 /// The geometric occlusion of the `surface.iso` surface of `field` (its signed distance by
-/// `surface`). `progress` counts the octants; `keep_octants` also returns each V_s.
+/// `surface`, on the CPU), the octants on `compute`. `progress` counts the octants (planes on
+/// the GPU); `keep_octants` also returns each V_s.
 pub fn occlusion(
+    compute: &Compute,
     field: &Volume,
     surface: &SdfParams,
     params: &GeometricParams,
@@ -155,20 +162,61 @@ pub fn occlusion(
         GeometryTable::hemisphere()
     };
     let (cells, transmittance) = surface_terms(&sdf.sdf, table, params);
+    let (ao, octants) = match compute {
+        Compute::Cpu => cpu_octants(
+            &transmittance,
+            &cells,
+            table,
+            params,
+            keep_octants,
+            progress,
+        )?,
+        Compute::Gpu(ctx) => super::gpu::geometric_octants(
+            ctx,
+            &transmittance,
+            &cells,
+            table,
+            params,
+            keep_octants,
+            progress,
+        )?,
+    };
+    let grid = |values| Volume::new(field.dims(), field.spacing(), field.origin(), values);
+    Ok(Occlusion {
+        ao: grid(ao)?,
+        sdf,
+        octants: if keep_octants {
+            Some(octants.into_iter().map(grid).collect::<Result<_>>()?)
+        } else {
+            None
+        },
+    })
+}
+
+/// The octant sweeps and the shading on the CPU: AO after gamma and, when `keep_octants`,
+/// each V_s (unpadded).
+fn cpu_octants(
+    transmittance: &Padded,
+    cells: &[Cell],
+    table: &GeometryTable,
+    params: &GeometricParams,
+    keep_octants: bool,
+    progress: &dyn Progress,
+) -> Result<(Vec<f32>, Vec<Vec<f32>>)> {
     let done = AtomicU64::new(0);
     let voxels = cells.len();
     // Two fixed groups of four octants, each summed in order into its own accumulator: the
     // sum does not depend on the number of threads, and at most two grids are in flight.
-    let group = |octants: &[usize]| -> Result<(Vec<f32>, Vec<Volume>)> {
+    let group = |octants: &[usize]| -> Result<(Vec<f32>, Vec<Vec<f32>>)> {
         let mut lit = vec![0.0f32; voxels];
         let mut kept = Vec::new();
-        let mut v = Padded::new(field.dims(), 1.0);
+        let mut v = Padded::new(transmittance.dims, 1.0);
         for &o in octants {
             if progress.cancelled() {
                 return Err(Error::Cancelled);
             }
             let intensity = params.intensities[o];
-            sweep_octant(&transmittance, octant_signs()[o], &mut v);
+            sweep_octant(transmittance, octant_signs()[o], &mut v);
             let [nx, ny, nz] = v.dims;
             for k in 0..nz {
                 for j in 0..ny {
@@ -182,13 +230,7 @@ pub fn occlusion(
                 }
             }
             if keep_octants {
-                let values = v.unpad(|x| x);
-                kept.push(Volume::new(
-                    field.dims(),
-                    field.spacing(),
-                    field.origin(),
-                    values,
-                )?);
+                kept.push(v.unpad(|x| x));
             }
             progress.update(done.fetch_add(1, Ordering::Relaxed) + 1, 8);
         }
@@ -201,11 +243,7 @@ pub fn occlusion(
     sum.par_iter_mut()
         .zip(&other)
         .for_each(|(a, b)| *a = (*a + b).clamp(0.0, 1.0).powf(exponent));
-    Ok(Occlusion {
-        ao: Volume::new(field.dims(), field.spacing(), field.origin(), sum)?,
-        sdf,
-        octants: keep_octants.then_some(kept),
-    })
+    Ok((sum, kept))
 }
 
 /// Per voxel, where its normal falls in `table` (the normal: the signed distance's gradient by
@@ -309,8 +347,9 @@ fn sweep_octant(transmittance: &Padded, signs: [i32; 3], v: &mut Padded) {
     }
 }
 
-/// Points per side of the octahedral table (its vertices; bilinear between them).
-const TABLE_SIDE: usize = 65;
+/// Points per side of the octahedral table (its vertices; bilinear between them); the shader's
+/// TABLE_SIDE.
+pub const TABLE_SIDE: usize = 65;
 /// Quadrature points per side of each cube face when the table is built.
 const TABLE_QUADRATURE: usize = 32;
 
@@ -321,10 +360,12 @@ pub struct GeometryTable {
     values: Vec<[f32; 8]>,
 }
 
-/// A voxel's surface terms: where its normal falls in the table (its cell's first texel and
+/// A voxel's surface terms (three words, as shaders/sweep.wgsl reads them): where its normal
+/// falls in the table (its cell's first texel and
 /// the bilinear fractions in 1/65535; [`Cell::NONE`] for no normal, each octant then taking
 /// 1/8), and the padded-grid offset of the neighbour the octants are read at.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
 pub struct Cell {
     texel: u32,
     frac: [u16; 2],
@@ -388,6 +429,11 @@ impl GeometryTable {
             })
             .collect();
         Self { values }
+    }
+
+    /// The terms, eight per texel (octant order), texels row by row.
+    pub fn values(&self) -> &[f32] {
+        bytemuck::cast_slice(&self.values)
     }
 
     /// Where the unit `n` falls in the table.

@@ -16,13 +16,15 @@
 //! twins differ only by the rounding of exp and of fused multiply-adds (tests/sweep_twins.rs).
 //! On lavapipe (2 cores) it is much slower than the CPU twin: 128^3 took 5.9 s against 0.34 s.
 
+use super::geometric::{Cell, GeometricParams, GeometryTable};
+use super::padded::Padded;
 use super::{Stencil, STEPS};
 use crate::error::{Error, Result};
 use crate::gpu::{buffer, shader, GpuContext};
 use crate::progress::Progress;
 use crate::volume::Volume;
 use bytemuck::{Pod, Zeroable};
-use glam::{UVec3, Vec3};
+use glam::{UVec3, Vec3, Vec4};
 
 const SHADER: &str = "sweep.wgsl";
 /// Invocations per workgroup of the 1D kernels (`@workgroup_size(64, 1, 1)`).
@@ -49,7 +51,11 @@ struct Params {
     padded_voxels: u32,
     plane: u32,
     row_width: u32,
-    _pad: [u32; 3],
+    geometric: u32,
+    inverse_gamma: f32,
+    _pad: u32,
+    intensities_low: Vec4,
+    intensities_high: Vec4,
 }
 
 /// How a volume's sweep fits the adapter: checked before anything is allocated.
@@ -179,6 +185,144 @@ fn distinct_lengths(stencil: &Stencil) -> (Vec<f32>, [usize; 7]) {
     (lengths, of_step)
 }
 
+/// The octant sweeps of one volume: the uniform, the fill and plane kernels bound to the
+/// group's octant grids and the seven half-step grids, as both modes use them.
+struct Octants<'a> {
+    ctx: &'a GpuContext,
+    plan: Plan,
+    params: Params,
+    uniform: wgpu::Buffer,
+    fill: wgpu::ComputePipeline,
+    plane: wgpu::ComputePipeline,
+    fill_bind: wgpu::BindGroup,
+    plane_bind: wgpu::BindGroup,
+    /// The group's padded octant grids, one after the other.
+    grids: wgpu::Buffer,
+}
+
+impl<'a> Octants<'a> {
+    fn new(
+        ctx: &'a GpuContext,
+        plan: Plan,
+        params: Params,
+        uniform: wgpu::Buffer,
+        halves: [&wgpu::Buffer; 7],
+    ) -> Result<Self> {
+        let fill = shader::compute_pipeline(ctx, SHADER, "sweep_fill")?;
+        let plane = shader::compute_pipeline(ctx, SHADER, "sweep_plane")?;
+        let grids =
+            buffer::output_buffer::<f32>(ctx, "sweep octants", plan.group * plan.padded_voxels)?;
+        let mut plane_resources = vec![
+            (0, uniform.as_entire_binding()),
+            (3, grids.as_entire_binding()),
+        ];
+        for (step, half) in halves.iter().enumerate() {
+            plane_resources.push((4 + step as u32, half.as_entire_binding()));
+        }
+        let plane_bind = shader::bind_group_at(ctx, &plane, &plane_resources)?;
+        let fill_bind = shader::bind_group_at(
+            ctx,
+            &fill,
+            &[
+                (0, uniform.as_entire_binding()),
+                (3, grids.as_entire_binding()),
+            ],
+        )?;
+        Ok(Self {
+            ctx,
+            plan,
+            params,
+            uniform,
+            fill,
+            plane,
+            fill_bind,
+            plane_bind,
+            grids,
+        })
+    }
+
+    /// Written before each dispatch: the write lands at the start of the next submission, so
+    /// each dispatch (submitted on its own) sees its own values.
+    fn set(&self) {
+        self.ctx
+            .queue
+            .write_buffer(&self.uniform, 0, bytemuck::bytes_of(&self.params));
+    }
+
+    /// A 1D kernel over `items` invocations, with the current parameters.
+    fn dispatch_1d(
+        &mut self,
+        pipeline: &wgpu::ComputePipeline,
+        bind: &wgpu::BindGroup,
+        items: usize,
+    ) -> Result<()> {
+        let (workgroups, row_width) = grid(self.ctx, items);
+        self.params.row_width = row_width;
+        self.set();
+        shader::dispatch(self.ctx, pipeline, bind, workgroups)
+    }
+
+    /// Sweeps the octants group by group, calling `finish` after each group's planes (with
+    /// `params.first_octant` and `params.octants` set to the group). `progress` counts planes
+    /// over all groups, reported and checked for cancellation every few dozen planes.
+    fn sweep(
+        &mut self,
+        progress: &dyn Progress,
+        mut finish: impl FnMut(&mut Self) -> Result<()>,
+    ) -> Result<()> {
+        let plan = self.plan;
+        let planes = plan.planes();
+        let total = (plan.groups() * planes) as u64;
+        for g in 0..plan.groups() {
+            let first = g * plan.group;
+            let count = plan.group.min(8 - first);
+            self.params.first_octant = first as u32;
+            self.params.octants = count as u32;
+            let (fill, fill_bind) = (self.fill.clone(), self.fill_bind.clone());
+            self.dispatch_1d(&fill, &fill_bind, count * plan.padded_voxels)?;
+            for block in (0..planes).step_by(PLANES_PER_BLOCK) {
+                if progress.cancelled() {
+                    return Err(Error::Cancelled);
+                }
+                let end = (block + PLANES_PER_BLOCK).min(planes);
+                for t in block..end {
+                    self.params.plane = t as u32;
+                    self.set();
+                    let workgroups = plan.plane_workgroups(t, count);
+                    shader::dispatch(self.ctx, &self.plane, &self.plane_bind, workgroups)?;
+                }
+                self.ctx.wait()?;
+                progress.update((g * planes + end) as u64, total);
+            }
+            finish(self)?;
+        }
+        Ok(())
+    }
+}
+
+/// The shared uniform values of a volume's sweep.
+fn base_params(dims: [usize; 3], plan: &Plan, weights: [f32; 7]) -> Params {
+    let w = weights;
+    Params {
+        dims: UVec3::new(dims[0] as u32, dims[1] as u32, dims[2] as u32),
+        solved_axis: plan.solved_axis as u32,
+        face_weights: Vec3::new(w[0], w[1], w[2]),
+        corner_weight: w[6],
+        edge_weights: Vec3::new(w[3], w[4], w[5]),
+        step_length: 0.0,
+        first_octant: 0,
+        octants: 0,
+        padded_voxels: plan.padded_voxels as u32,
+        plane: 0,
+        row_width: 0,
+        geometric: 0,
+        inverse_gamma: 1.0,
+        _pad: 0,
+        intensities_low: Vec4::ONE,
+        intensities_high: Vec4::ONE,
+    }
+}
+
 /// The visibility volume of `extinction` (sigma_t per world unit at each voxel centre) on the
 /// GPU: the mean of the eight octant visibilities, as [`super::cpu::visibility`] computes it.
 /// `progress` counts planes (over all groups of octants), reported and checked for
@@ -195,34 +339,11 @@ pub fn visibility(
         return Err(Error::Cancelled);
     }
     let half_steps = shader::compute_pipeline(ctx, SHADER, "sweep_half_steps")?;
-    let fill = shader::compute_pipeline(ctx, SHADER, "sweep_fill")?;
-    let plane = shader::compute_pipeline(ctx, SHADER, "sweep_plane")?;
     let average = shader::compute_pipeline(ctx, SHADER, "sweep_average")?;
-
     let voxels = extinction.values().len();
     let padded = plan.padded_voxels;
-    let w = stencil.weights;
-    let mut params = Params {
-        dims: UVec3::new(dims[0] as u32, dims[1] as u32, dims[2] as u32),
-        solved_axis: plan.solved_axis as u32,
-        face_weights: Vec3::new(w[0], w[1], w[2]),
-        corner_weight: w[6],
-        edge_weights: Vec3::new(w[3], w[4], w[5]),
-        step_length: 0.0,
-        first_octant: 0,
-        octants: 0,
-        padded_voxels: padded as u32,
-        plane: 0,
-        row_width: 0,
-        _pad: [0; 3],
-    };
+    let mut params = base_params(dims, &plan, stencil.weights);
     let uniform = buffer::uniform_buffer(ctx, "sweep params", &params)?;
-    // Written before each dispatch: the write lands at the start of the next submission, so
-    // each dispatch (submitted on its own) sees its own values.
-    let set = |params: &Params| {
-        ctx.queue
-            .write_buffer(&uniform, 0, bytemuck::bytes_of(params))
-    };
 
     let (lengths, of_step) = distinct_lengths(&stencil);
     let sigma = buffer::storage_buffer(ctx, "sweep extinction", extinction.values())?;
@@ -232,7 +353,8 @@ pub fn visibility(
         let half = buffer::output_buffer::<f32>(ctx, "sweep half steps", padded)?;
         params.step_length = length;
         params.row_width = row_width;
-        set(&params);
+        ctx.queue
+            .write_buffer(&uniform, 0, bytemuck::bytes_of(&params));
         let bind = shader::bind_group_at(
             ctx,
             &half_steps,
@@ -247,65 +369,82 @@ pub fn visibility(
     }
     drop(sigma);
 
-    let octants = buffer::output_buffer::<f32>(ctx, "sweep octants", plan.group * padded)?;
     let sum = buffer::output_buffer::<f32>(ctx, "sweep visibility", voxels)?;
-    let mut plane_resources = vec![
-        (0, uniform.as_entire_binding()),
-        (3, octants.as_entire_binding()),
-    ];
-    for (step, &l) in of_step.iter().enumerate() {
-        plane_resources.push((4 + step as u32, halves[l].as_entire_binding()));
-    }
-    let plane_bind = shader::bind_group_at(ctx, &plane, &plane_resources)?;
-    let fill_bind = shader::bind_group_at(
-        ctx,
-        &fill,
-        &[
-            (0, uniform.as_entire_binding()),
-            (3, octants.as_entire_binding()),
-        ],
-    )?;
+    let mut octants = Octants::new(ctx, plan, params, uniform, of_step.map(|l| &halves[l]))?;
     let average_bind = shader::bind_group_at(
         ctx,
         &average,
         &[
-            (0, uniform.as_entire_binding()),
-            (3, octants.as_entire_binding()),
+            (0, octants.uniform.as_entire_binding()),
+            (3, octants.grids.as_entire_binding()),
             (11, sum.as_entire_binding()),
         ],
     )?;
-
-    let planes = plan.planes();
-    let total = (plan.groups() * planes) as u64;
-    for g in 0..plan.groups() {
-        let first = g * plan.group;
-        let count = plan.group.min(8 - first);
-        params.first_octant = first as u32;
-        params.octants = count as u32;
-        let (workgroups, row_width) = grid(ctx, count * padded);
-        params.row_width = row_width;
-        set(&params);
-        shader::dispatch(ctx, &fill, &fill_bind, workgroups)?;
-        for block in (0..planes).step_by(PLANES_PER_BLOCK) {
-            if progress.cancelled() {
-                return Err(Error::Cancelled);
-            }
-            let end = (block + PLANES_PER_BLOCK).min(planes);
-            for t in block..end {
-                params.plane = t as u32;
-                set(&params);
-                shader::dispatch(ctx, &plane, &plane_bind, plan.plane_workgroups(t, count))?;
-            }
-            ctx.wait()?;
-            progress.update((g * planes + end) as u64, total);
-        }
-        let (workgroups, row_width) = grid(ctx, voxels);
-        params.row_width = row_width;
-        set(&params);
-        shader::dispatch(ctx, &average, &average_bind, workgroups)?;
-    }
+    octants.sweep(progress, |o| o.dispatch_1d(&average, &average_bind, voxels))?;
     let values = buffer::read_buffer::<f32>(ctx, &sum)?;
     Volume::new(dims, extinction.spacing(), extinction.origin(), values)
+}
+
+/// The geometric mode's octants and shading on the GPU (twin of the octant part of
+/// [`super::geometric`]): the eight sweeps of Eq. 6 over the padded `transmittance`, then
+/// sum_s I_s G_s V_s read at each voxel's `cells` step, clamped and raised to 1 / gamma.
+/// Returns the AO (unpadded, x fastest) and, when `keep_octants`, each V_s unpadded.
+pub fn geometric_octants(
+    ctx: &GpuContext,
+    transmittance: &Padded,
+    cells: &[Cell],
+    table: &GeometryTable,
+    params: &GeometricParams,
+    keep_octants: bool,
+    progress: &dyn Progress,
+) -> Result<(Vec<f32>, Vec<Vec<f32>>)> {
+    let dims = transmittance.dims;
+    let plan = Plan::new(dims, &ctx.limits)?;
+    let voxels = cells.len();
+    let third = 1.0 / 3.0;
+    let mut uniforms = base_params(dims, &plan, [third, third, third, 0.0, 0.0, 0.0, 0.0]);
+    uniforms.geometric = 1;
+    uniforms.inverse_gamma = 1.0 / params.gamma;
+    let i = params.intensities;
+    uniforms.intensities_low = Vec4::new(i[0], i[1], i[2], i[3]);
+    uniforms.intensities_high = Vec4::new(i[4], i[5], i[6], i[7]);
+    let uniform = buffer::uniform_buffer(ctx, "sweep params", &uniforms)?;
+    let tau = buffer::storage_buffer(ctx, "sweep transmittance", &transmittance.values)?;
+    let cell_words = buffer::storage_buffer(ctx, "sweep surface terms", cells)?;
+    let geometry = buffer::storage_buffer(ctx, "sweep geometry table", table.values())?;
+    let sum = buffer::output_buffer::<f32>(ctx, "sweep ao", voxels)?;
+    let shade = shader::compute_pipeline(ctx, SHADER, "sweep_shade")?;
+    let mut octants = Octants::new(ctx, plan, uniforms, uniform, [&tau; 7])?;
+    let shade_bind = shader::bind_group_at(
+        ctx,
+        &shade,
+        &[
+            (0, octants.uniform.as_entire_binding()),
+            (3, octants.grids.as_entire_binding()),
+            (11, sum.as_entire_binding()),
+            (12, cell_words.as_entire_binding()),
+            (13, geometry.as_entire_binding()),
+        ],
+    )?;
+    let mut kept = Vec::new();
+    octants.sweep(progress, |o| {
+        o.dispatch_1d(&shade, &shade_bind, voxels)?;
+        if keep_octants {
+            let grids = buffer::read_buffer::<f32>(ctx, &o.grids)?;
+            for g in grids
+                .chunks(plan.padded_voxels)
+                .take(o.params.octants as usize)
+            {
+                let padded = Padded {
+                    dims,
+                    values: g.to_vec(),
+                };
+                kept.push(padded.unpad(|x| x));
+            }
+        }
+        Ok(())
+    })?;
+    Ok((buffer::read_buffer::<f32>(ctx, &sum)?, kept))
 }
 
 #[cfg(test)]
@@ -330,7 +469,11 @@ mod tests {
                 octants,
                 padded_voxels,
                 plane,
-                row_width
+                row_width,
+                geometric,
+                inverse_gamma,
+                intensities_low,
+                intensities_high
             ]
         );
     }
