@@ -16,6 +16,10 @@ const SOURCES: &[(&str, &str)] = &[
     ("classify.wgsl", include_str!("../../shaders/classify.wgsl")),
     ("dos.wgsl", include_str!("../../shaders/dos.wgsl")),
     ("raycast.wgsl", include_str!("../../shaders/raycast.wgsl")),
+    (
+        "sweep_sdf.wgsl",
+        include_str!("../../shaders/sweep_sdf.wgsl"),
+    ),
     ("sweep.wgsl", include_str!("../../shaders/sweep.wgsl")),
     (
         "vao_stats.wgsl",

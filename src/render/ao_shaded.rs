@@ -274,6 +274,7 @@ impl RenderMethod for AoParams {
             "vao_stats.wgsl",
             "vao_estimate.wgsl",
             "sweep.wgsl",
+            "sweep_sdf.wgsl",
         ],
         lights: ALL_LIGHTS,
         layers: &["beauty", "depth"],

@@ -27,18 +27,18 @@
 //! 5. AO^(1 / gamma) as a post-process (gamma 2 by default, the paper's choice to brighten the
 //!    sweep's darkening).
 //!
-//! Twins: the signed distance and the surface terms on the CPU (Gauss-Seidel, its eight orders
-//! shared between two teams), then the octants and the shading on the CPU (two parallel
-//! groups of four octants) or the GPU (shaders/sweep.wgsl, the physical mode's plane kernel
-//! with the paper's terms, then `sweep_shade`); they agree within 1e-4
-//! (tests/sweep_twins.rs).
+//! Twins: the signed distance on the CPU (rows, its eight orders shared between two teams) or
+//! the GPU (shaders/sweep_sdf.wgsl, plane by plane); the surface terms on the CPU; the octants and
+//! the shading on the CPU (two parallel groups of four octants) or the GPU (shaders/sweep.wgsl,
+//! the physical mode's plane kernel with the paper's terms, then `sweep_shade`); they agree
+//! within the tolerances of tests/sweep_twins.rs.
 //!
 //! The three-neighbour average follows the octant's diagonal and blurs directions (the paper's
 //! diagonal streaks); the physical mode ([`super::cpu`]) uses seven neighbours and real
 //! extinction. This mode is the paper's, for iso-surface renderings.
 
 use super::padded::{octant_signs, sweep_order, Padded};
-use super::sdf::{signed_distance, SdfParams, SdfResult};
+use super::sdf::{signed_distance_on, SdfParams, SdfResult};
 use crate::error::{Error, Result};
 use crate::gpu::Compute;
 use crate::progress::{NoProgress, Progress};
@@ -141,7 +141,7 @@ pub struct Occlusion {
 }
 
 /// The geometric occlusion of the `surface.iso` surface of `field` (its signed distance by
-/// `surface`, on the CPU), the octants on `compute`. `progress` counts the octants (planes on
+/// `surface`) on `compute` (the surface terms on the CPU). `progress` counts the octants (planes on
 /// the GPU); `keep_octants` also returns each V_s.
 pub fn occlusion(
     compute: &Compute,
@@ -152,7 +152,7 @@ pub fn occlusion(
     progress: &dyn Progress,
 ) -> Result<Occlusion> {
     params.validate()?;
-    let sdf = signed_distance(field, surface, &NoProgress)?;
+    let sdf = signed_distance_on(compute, field, surface, &NoProgress)?;
     if progress.cancelled() {
         return Err(Error::Cancelled);
     }

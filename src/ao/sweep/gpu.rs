@@ -60,7 +60,7 @@ struct Params {
 
 /// How a volume's sweep fits the adapter: checked before anything is allocated.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-struct Plan {
+pub(super) struct Plan {
     dims: [usize; 3],
     /// Voxels of one padded grid.
     padded_voxels: usize,
@@ -68,11 +68,11 @@ struct Plan {
     group: usize,
     /// The axis solved from the plane index: the longest, so that the dispatch over the other
     /// two wastes the fewest invocations.
-    solved_axis: usize,
+    pub(super) solved_axis: usize,
 }
 
 impl Plan {
-    fn new(dims: [usize; 3], limits: &wgpu::Limits) -> Result<Self> {
+    pub(super) fn new(dims: [usize; 3], limits: &wgpu::Limits) -> Result<Self> {
         let padded_voxels: usize = dims.iter().map(|n| n + 2).product();
         let binding = limits
             .max_storage_buffer_binding_size
@@ -129,7 +129,7 @@ impl Plan {
     }
 
     /// Anti-diagonal planes per octant.
-    fn planes(&self) -> usize {
+    pub(super) fn planes(&self) -> usize {
         self.dims.iter().sum::<usize>() - 2
     }
 
@@ -146,7 +146,7 @@ impl Plan {
 
     /// Workgroups of plane `t`'s dispatch for `octants` octants: the enumerated axes' ranges
     /// on the plane, as sweep_plane recomputes them.
-    fn plane_workgroups(&self, t: usize, octants: usize) -> [u32; 3] {
+    pub(super) fn plane_workgroups(&self, t: usize, octants: usize) -> [u32; 3] {
         let n = self.dims.map(|n| n as i64);
         let s = self.solved_axis;
         let (a, b) = ((s + 1) % 3, (s + 2) % 3);

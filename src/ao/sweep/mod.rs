@@ -43,6 +43,7 @@ pub mod geometric;
 pub mod gpu;
 pub mod padded;
 pub mod sdf;
+pub mod sdf_gpu;
 
 use crate::error::{Error, Result};
 use crate::volume::Volume;

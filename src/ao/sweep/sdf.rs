@@ -37,6 +37,8 @@
 //! teams on copies, merged by the minimum (Zhao 2007). `occlux bench-sweep` times it: about
 //! 2.4 s for three rounds of 250^3 on 2 cores (from 8 s single-threaded before).
 //!
+//! GPU twin: [`super::sdf_gpu`] (shaders/sweep_sdf.wgsl) sweeps the same orders plane by plane.
+//!
 //! Bad input: a volume that never crosses the iso-value (including a constant one) has no
 //! surface and so no distance: that is an error, not a grid of infinities. The output never
 //! holds NaN or infinity.
@@ -118,7 +120,23 @@ pub struct SdfResult {
     pub converged: bool,
 }
 
-/// The signed distance to the `params.iso` surface of `volume`, by fast sweeping.
+/// The signed distance to the `params.iso` surface of `volume`, by fast sweeping, on
+/// `compute` (the GPU twin: [`super::sdf_gpu`]).
+pub fn signed_distance_on(
+    compute: &crate::gpu::Compute,
+    volume: &Volume,
+    params: &SdfParams,
+    progress: &dyn Progress,
+) -> Result<SdfResult> {
+    match compute {
+        crate::gpu::Compute::Cpu => signed_distance(volume, params, progress),
+        crate::gpu::Compute::Gpu(ctx) => {
+            super::sdf_gpu::signed_distance(ctx, volume, params, progress)
+        }
+    }
+}
+
+/// The signed distance to the `params.iso` surface of `volume`, by fast sweeping on the CPU.
 /// `progress` counts sweeps (eight per round) out of `8 * max_iterations`; cancelling stops
 /// between sweeps with [`Error::Cancelled`].
 pub fn signed_distance(
@@ -126,6 +144,60 @@ pub fn signed_distance(
     params: &SdfParams,
     progress: &dyn Progress,
 ) -> Result<SdfResult> {
+    let mut grid = start(volume, params)?;
+    let h = volume.spacing().to_array();
+    let weights = h.map(|x| 1.0 / (x * x));
+    let total = 8 * params.max_iterations as u64;
+    let mut rounds = Rounds::new(params);
+    let done = AtomicU64::new(0);
+    while !rounds.finished() {
+        let change = grid.round(h, weights, rounds.iterations, &|| {
+            if progress.cancelled() {
+                return Err(Error::Cancelled);
+            }
+            progress.update(done.fetch_add(1, Ordering::Relaxed) + 1, total);
+            Ok(())
+        })?;
+        rounds.record(change);
+    }
+    progress.update(total, total);
+    finish(volume, params, &grid.u, rounds)
+}
+
+/// Rounds of eight sweeps until the change falls below the tolerance or the limit is reached.
+pub(crate) struct Rounds {
+    pub iterations: u32,
+    max_iterations: u32,
+    tolerance: f32,
+    max_change: f32,
+    converged: bool,
+}
+
+impl Rounds {
+    pub fn new(params: &SdfParams) -> Self {
+        Self {
+            iterations: 0,
+            max_iterations: params.max_iterations,
+            tolerance: params.tolerance,
+            max_change: f32::INFINITY,
+            converged: false,
+        }
+    }
+
+    pub fn finished(&self) -> bool {
+        self.converged || self.iterations >= self.max_iterations
+    }
+
+    /// A round ended with `change` as its largest decrease.
+    pub fn record(&mut self, change: f32) {
+        self.iterations += 1;
+        self.max_change = change;
+        self.converged = change < self.tolerance;
+    }
+}
+
+/// Checks the input and sets the voxels next to the surface: the grid the sweeps start from.
+pub(crate) fn start(volume: &Volume, params: &SdfParams) -> Result<Grid> {
     params.validate()?;
     let spacing = volume.spacing();
     if !(spacing.is_finite() && spacing.min_element() > 0.0) {
@@ -133,10 +205,8 @@ pub fn signed_distance(
             "spacing {spacing} must be positive and finite for the signed distance"
         )));
     }
-    let dims = volume.dims();
-    let h = spacing.to_array();
-    let mut grid = Grid::new(dims);
-    let fixed = initialize(volume, params.iso, h, &mut grid);
+    let mut grid = Grid::new(volume.dims());
+    let fixed = initialize(volume, params.iso, spacing.to_array(), &mut grid);
     if fixed == 0 {
         let (lo, hi) = volume.value_range();
         return Err(Error::Volume(format!(
@@ -145,40 +215,26 @@ pub fn signed_distance(
             params.iso
         )));
     }
+    Ok(grid)
+}
 
-    let weights = h.map(|x| 1.0 / (x * x));
-    let total = 8 * params.max_iterations as u64;
-    let mut iterations = 0;
-    let mut max_change = f32::INFINITY;
-    let mut converged = false;
-    let done = AtomicU64::new(0);
-    while iterations < params.max_iterations {
-        let change = grid.round(h, weights, iterations, &|| {
-            if progress.cancelled() {
-                return Err(Error::Cancelled);
-            }
-            progress.update(done.fetch_add(1, Ordering::Relaxed) + 1, total);
-            Ok(())
-        })?;
-        iterations += 1;
-        max_change = change;
-        if change < params.tolerance {
-            converged = true;
-            break;
-        }
-    }
-    progress.update(total, total);
-
-    // Sign and unpad. Every voxel was set in the first round (the grid is connected), but a
-    // value that is somehow still unset is an error, never an infinity in the output.
-    let [nx, ny, nz] = dims;
+/// The result from the swept distances `u` (padded, unsigned): signed and unpadded. Every
+/// voxel was set in the first round (the grid is connected), but a value that is somehow still
+/// unset is an error, never an infinity in the output.
+pub(crate) fn finish(
+    volume: &Volume,
+    params: &SdfParams,
+    u: &[f32],
+    rounds: Rounds,
+) -> Result<SdfResult> {
+    let [nx, ny, nz] = volume.dims();
     let values = volume.values();
     let mut out = Vec::with_capacity(values.len());
     for k in 0..nz {
         for j in 0..ny {
-            let start = grid.index(0, j, k);
+            let start = 1 + (nx + 2) * ((j + 1) + (ny + 2) * (k + 1));
             let row = &values[(j + ny * k) * nx..][..nx];
-            out.extend(grid.u[start..start + nx].iter().zip(row).map(|(&d, &v)| {
+            out.extend(u[start..start + nx].iter().zip(row).map(|(&d, &v)| {
                 if v > params.iso {
                     -d
                 } else {
@@ -193,20 +249,20 @@ pub fn signed_distance(
         )));
     }
     Ok(SdfResult {
-        sdf: Volume::new(dims, spacing, volume.origin(), out)?,
-        iterations,
-        max_change,
-        converged,
+        sdf: Volume::new(volume.dims(), volume.spacing(), volume.origin(), out)?,
+        iterations: rounds.iterations,
+        max_change: rounds.max_change,
+        converged: rounds.converged,
     })
 }
 
 /// Unsigned distances on a grid padded by one voxel of +infinity on every side (so the
 /// neighbour minima need no bounds checks), x fastest, with the fixed (interface) voxels marked
 /// and, per row, the last round in which one of its voxels changed.
-struct Grid {
+pub(crate) struct Grid {
     dims: [usize; 3],
-    u: Vec<f32>,
-    fixed: Vec<bool>,
+    pub u: Vec<f32>,
+    pub fixed: Vec<bool>,
     /// Per padded row (j + 1) + (ny + 2) (k + 1): 1 + the last round a voxel of it decreased
     /// in (0: never; saturating). A row none of whose own and four neighbouring rows changed
     /// in this round or the last cannot change now: its update reads only those rows, and
