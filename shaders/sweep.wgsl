@@ -22,6 +22,8 @@
 //   step) and weighed by its intensity and its geometry term (bilinear in the table), added
 //   into the sum; the last group clamps it to [0, 1] and raises it to 1 / gamma.
 
+//#include "plane.wgsl"
+
 // Mirrored by ao::sweep::gpu::Params.
 struct Params {
     // Voxels along x, y, z (unpadded).
@@ -135,23 +137,11 @@ fn term(weight: f32, here: f32, there: f32, seen: f32) -> f32 {
 @compute @workgroup_size(8, 8, 1)
 fn sweep_plane(@builtin(global_invocation_id) id: vec3<u32>) {
     let n = vec3<i32>(params.dims);
-    let t = i32(params.plane);
-    let solved = params.solved_axis;
-    let axis_a = (solved + 1u) % 3u;
-    let axis_b = (solved + 2u) % 3u;
-    // The enumerated axes start where the plane enters them (as the host sizes the dispatch).
-    let lo_a = max(0, t - (n[axis_b] - 1) - (n[solved] - 1));
-    let lo_b = max(0, t - (n[axis_a] - 1) - (n[solved] - 1));
-    let a = lo_a + i32(id.x);
-    let b = lo_b + i32(id.y);
-    let c = t - a - b;
-    if (a >= n[axis_a] || b >= n[axis_b] || c < 0 || c >= n[solved] || id.z >= params.octants) {
+    let position = plane_position(id.xy, i32(params.plane), n, params.solved_axis);
+    if (position.w == 0 || id.z >= params.octants) {
         return;
     }
-    var d = vec3<i32>(0);
-    d[axis_a] = a;
-    d[axis_b] = b;
-    d[solved] = c;
+    let d = position.xyz;
     let octant = params.first_octant + id.z;
     let signs = vec3<i32>(1) - 2 * vec3<i32>(
         i32(octant & 1u),

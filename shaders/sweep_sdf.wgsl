@@ -10,6 +10,8 @@
 // stand-in for the CPU's infinity (shaders may assume no infinities): UNSET + h rounds back to
 // UNSET, so an unset neighbour never lowers a value, as infinity does not.
 
+//#include "plane.wgsl"
+
 // Mirrored by ao::sweep::sdf_gpu::Params.
 struct Params {
     // Voxels along x, y, z (unpadded).
@@ -79,23 +81,11 @@ fn solve(a_in: vec3<f32>) -> f32 {
 @compute @workgroup_size(8, 8, 1)
 fn sdf_plane(@builtin(global_invocation_id) id: vec3<u32>) {
     let n = vec3<i32>(params.dims);
-    let t = i32(params.plane);
-    let solved = params.solved_axis;
-    let axis_a = (solved + 1u) % 3u;
-    let axis_b = (solved + 2u) % 3u;
-    // The enumerated axes start where the plane enters them (as the host sizes the dispatch).
-    let lo_a = max(0, t - (n[axis_b] - 1) - (n[solved] - 1));
-    let lo_b = max(0, t - (n[axis_a] - 1) - (n[solved] - 1));
-    let a = lo_a + i32(id.x);
-    let b = lo_b + i32(id.y);
-    let c = t - a - b;
-    if (a >= n[axis_a] || b >= n[axis_b] || c < 0 || c >= n[solved]) {
+    let position = plane_position(id.xy, i32(params.plane), n, params.solved_axis);
+    if (position.w == 0) {
         return;
     }
-    var d = vec3<i32>(0);
-    d[axis_a] = a;
-    d[axis_b] = b;
-    d[solved] = c;
+    let d = position.xyz;
     let descending = vec3<bool>(
         (params.order & 1u) != 0u,
         (params.order & 2u) != 0u,

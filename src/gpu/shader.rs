@@ -15,6 +15,7 @@ const SOURCES: &[(&str, &str)] = &[
     ("common.wgsl", include_str!("../../shaders/common.wgsl")),
     ("classify.wgsl", include_str!("../../shaders/classify.wgsl")),
     ("dos.wgsl", include_str!("../../shaders/dos.wgsl")),
+    ("plane.wgsl", include_str!("../../shaders/plane.wgsl")),
     ("raycast.wgsl", include_str!("../../shaders/raycast.wgsl")),
     (
         "sweep_sdf.wgsl",

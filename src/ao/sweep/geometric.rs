@@ -161,25 +161,12 @@ pub fn occlusion(
     } else {
         GeometryTable::hemisphere()
     };
-    let (cells, transmittance) = surface_terms(&sdf.sdf, table, params);
+    let surface = surface_terms(&sdf.sdf, table, params);
     let (ao, octants) = match compute {
-        Compute::Cpu => cpu_octants(
-            &transmittance,
-            &cells,
-            table,
-            params,
-            keep_octants,
-            progress,
-        )?,
-        Compute::Gpu(ctx) => super::gpu::geometric_octants(
-            ctx,
-            &transmittance,
-            &cells,
-            table,
-            params,
-            keep_octants,
-            progress,
-        )?,
+        Compute::Cpu => cpu_octants(&surface, params, keep_octants, progress)?,
+        Compute::Gpu(ctx) => {
+            super::gpu::geometric_octants(ctx, &surface, params, keep_octants, progress)?
+        }
     };
     let grid = |values| Volume::new(field.dims(), field.spacing(), field.origin(), values);
     Ok(Occlusion {
@@ -196,13 +183,16 @@ pub fn occlusion(
 /// The octant sweeps and the shading on the CPU: AO after gamma and, when `keep_octants`,
 /// each V_s (unpadded).
 fn cpu_octants(
-    transmittance: &Padded,
-    cells: &[Cell],
-    table: &GeometryTable,
+    surface: &Surface,
     params: &GeometricParams,
     keep_octants: bool,
     progress: &dyn Progress,
 ) -> Result<(Vec<f32>, Vec<Vec<f32>>)> {
+    let Surface {
+        transmittance,
+        cells,
+        table,
+    } = surface;
     let done = AtomicU64::new(0);
     let voxels = cells.len();
     // Two fixed groups of four octants, each summed in order into its own accumulator: the
@@ -246,15 +236,20 @@ fn cpu_octants(
     Ok((sum, kept))
 }
 
+/// What the octant sweeps read: the transmittance from distance, each voxel's surface terms and
+/// the geometry table they index.
+pub struct Surface {
+    /// Eq. 7 and 8, padded with 1.
+    pub transmittance: Padded,
+    pub cells: Vec<Cell>,
+    pub table: &'static GeometryTable,
+}
+
 /// Per voxel, where its normal falls in `table` (the normal: the signed distance's gradient by
 /// central differences, one-sided at the grid's faces; none where the gradient vanishes, a
 /// kink such as a ball's centre, or with the combined scalar AO), and the transmittance from
-/// distance (Eq. 7 and 8), padded with 1.
-fn surface_terms(
-    sdf: &Volume,
-    table: &GeometryTable,
-    params: &GeometricParams,
-) -> (Vec<Cell>, Padded) {
+/// distance (Eq. 7 and 8).
+fn surface_terms(sdf: &Volume, table: &'static GeometryTable, params: &GeometricParams) -> Surface {
     let [nx, ny, nz] = sdf.dims();
     let h = sdf.spacing();
     let d = sdf.values();
@@ -304,7 +299,11 @@ fn surface_terms(
                 }
             }
         });
-    (cells, Padded::map(sdf.dims(), &tau, 1.0, |t| t))
+    Surface {
+        transmittance: Padded::map(sdf.dims(), &tau, 1.0, |t| t),
+        cells,
+        table,
+    }
 }
 
 /// V_s by the three-neighbour average (Eq. 6) for the octant of `signs`, into `v` (whose

@@ -16,7 +16,7 @@
 //! twins differ only by the rounding of exp and of fused multiply-adds (tests/sweep_twins.rs).
 //! On lavapipe (2 cores) it is much slower than the CPU twin: 128^3 took 5.9 s against 0.34 s.
 
-use super::geometric::{Cell, GeometricParams, GeometryTable};
+use super::geometric::{GeometricParams, Surface};
 use super::padded::Padded;
 use super::{Stencil, STEPS};
 use crate::error::{Error, Result};
@@ -387,17 +387,20 @@ pub fn visibility(
 
 /// The geometric mode's octants and shading on the GPU (twin of the octant part of
 /// [`super::geometric`]): the eight sweeps of Eq. 6 over the padded `transmittance`, then
-/// sum_s I_s G_s V_s read at each voxel's `cells` step, clamped and raised to 1 / gamma.
+/// sum_s I_s G_s V_s read at each voxel's cell step, clamped and raised to 1 / gamma.
 /// Returns the AO (unpadded, x fastest) and, when `keep_octants`, each V_s unpadded.
 pub fn geometric_octants(
     ctx: &GpuContext,
-    transmittance: &Padded,
-    cells: &[Cell],
-    table: &GeometryTable,
+    surface: &Surface,
     params: &GeometricParams,
     keep_octants: bool,
     progress: &dyn Progress,
 ) -> Result<(Vec<f32>, Vec<Vec<f32>>)> {
+    let Surface {
+        transmittance,
+        cells,
+        table,
+    } = surface;
     let dims = transmittance.dims;
     let plan = Plan::new(dims, &ctx.limits)?;
     let voxels = cells.len();
