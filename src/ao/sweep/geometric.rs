@@ -254,21 +254,27 @@ fn surface_terms(sdf: &Volume, table: &'static GeometryTable, params: &Geometric
     let h = sdf.spacing();
     let d = sdf.values();
     let mut cells = vec![Cell::NONE; nx * ny * nz];
-    let mut tau = vec![0.0f32; nx * ny * nz];
+    let mut transmittance = Padded::new(sdf.dims(), 1.0);
     let plane = nx * ny;
+    let padded_plane = (nx + 2) * (ny + 2);
     let (px, py) = ((nx + 2) as i32, (ny + 2) as i32);
+    // Planes in parallel: each voxel's cell, and its transmittance straight into the padded
+    // grid (whose first plane is padding).
     cells
         .par_chunks_mut(plane)
-        .zip(tau.par_chunks_mut(plane))
+        .zip(transmittance.values.par_chunks_mut(padded_plane).skip(1))
         .enumerate()
         .for_each(|(k, (cells, tau))| {
-            // The neighbour's index and the step's length along each axis, one-sided at faces.
+            // The neighbours' indices and the steps between them along an axis: central
+            // differences, one-sided at the grid's faces.
             let span = |at: usize, n: usize, stride: usize, index: usize| {
-                let lo = if at > 0 { index - stride } else { index };
-                let hi = if at + 1 < n { index + stride } else { index };
-                (lo, hi, ((hi - lo) / stride) as f32)
+                let (below, above) = (at > 0, at + 1 < n);
+                let lo = if below { index - stride } else { index };
+                let hi = if above { index + stride } else { index };
+                (lo, hi, (below as u32 + above as u32) as f32)
             };
             for j in 0..ny {
+                let padded_row = 1 + (nx + 2) * (j + 1);
                 for i in 0..nx {
                     let index = i + nx * (j + ny * k);
                     let mut g = Vec3::ZERO;
@@ -285,7 +291,7 @@ fn surface_terms(sdf: &Volume, table: &'static GeometryTable, params: &Geometric
                     // The voxel's width along the normal; without one, the mean spacing.
                     let width = normal.map_or(h.element_sum() / 3.0, |n| n.abs().dot(h));
                     let t = (d[index] / width + 0.5).clamp(0.0, 1.0);
-                    tau[i + nx * j] = 1.0 - (1.0 - t) * params.alpha;
+                    tau[padded_row + i] = 1.0 - (1.0 - t) * params.alpha;
                     let mut cell = match normal {
                         Some(n) if params.normal_weighted => table.cell(n),
                         _ => Cell::NONE,
@@ -300,7 +306,7 @@ fn surface_terms(sdf: &Volume, table: &'static GeometryTable, params: &Geometric
             }
         });
     Surface {
-        transmittance: Padded::map(sdf.dims(), &tau, 1.0, |t| t),
+        transmittance,
         cells,
         table,
     }
