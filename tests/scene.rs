@@ -290,3 +290,19 @@ fn dos_errors_name_the_key() {
         assert!(err.contains(key), "{tail}: {err}");
     }
 }
+
+#[test]
+fn every_example_scene_parses() {
+    // The shipped examples use only keys, methods and lights the registry takes (their
+    // volumes are loaded where the data is, by the CLI and benchmark tests).
+    let dir = Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/examples"));
+    let mut parsed = 0;
+    for entry in std::fs::read_dir(dir).unwrap() {
+        let path = entry.unwrap().path();
+        if path.extension().is_some_and(|e| e == "toml") {
+            Scene::from_file(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+            parsed += 1;
+        }
+    }
+    assert!(parsed >= 9, "{parsed} examples");
+}
