@@ -540,6 +540,46 @@ fn ao_shaded_scenes_render_and_export_the_ao_grid() {
 }
 
 #[test]
+fn sweep_accuracy_measures_either_mode_against_the_ambient_reference() {
+    let out = tempfile::tempdir().unwrap();
+    let scene = small_scene(out.path());
+    let scene = scene.to_str().unwrap();
+    let json = out.path().join("accuracy.json");
+    let mut errors = vec![];
+    for method in ["sweep-physical", "sweep"] {
+        let report = report_of(
+            &[
+                "sweep-accuracy",
+                "--scenes",
+                scene,
+                "--method",
+                method,
+                "--size",
+                "16",
+                "--spp",
+                "256",
+                "--device",
+                "cpu",
+            ],
+            &json,
+        );
+        assert_eq!(report["method"], method);
+        let row = &report["rows"][0];
+        assert!(row["pixels"].as_u64().unwrap() > 0, "{row}");
+        errors.push(row["rel_rmse"].as_f64().unwrap());
+    }
+    // The physical mode is the exact image up to its visibility's error and the reference's
+    // noise; the geometric mode shades a surface, not the medium, and is further off.
+    assert!(errors[0] < 0.15 && errors[0] < errors[1], "{errors:?}");
+    let run = occlux(&["sweep-accuracy", "--scenes", scene, "--method", "cdf"]);
+    let stderr = String::from_utf8_lossy(&run.stderr);
+    assert!(
+        !run.status.success() && stderr.contains("--method"),
+        "{stderr}"
+    );
+}
+
+#[test]
 fn bench_ao_times_each_radius_on_a_crop_and_refuses_bad_requests() {
     let out = tempfile::tempdir().unwrap();
     let json = out.path().join("bench.json");

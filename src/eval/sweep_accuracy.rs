@@ -1,11 +1,12 @@
-//! `occlux sweep-accuracy`: AO-shaded DVR with the occlusion sweep's visibility under the
+//! `occlux sweep-accuracy`: AO-shaded DVR with an occlusion sweep's AO volume (the physical
+//! mode's visibility by default, or the geometric mode's AO with `--method sweep`) under the
 //! ambient light of each scene (radiance 1, background 1, no direct light, isotropic phase),
 //! against the path-traced truth of the same scene: Occlux's ambient Monte Carlo reference, or
 //! a Cycles render given with `--cycles` (for the engine scene of
 //! ../shared/bench/engine-cycles). Error over the volume's pixels as DESIGN.md defines it, and
 //! the time of each stage; table and JSON.
 
-use crate::ao;
+use crate::ao::{self, AoMethod, AoVolumeParams};
 use crate::error::{Error, Result};
 use crate::export::exr::read_exr;
 use crate::gpu::{Compute, DeviceChoice};
@@ -33,6 +34,11 @@ pub struct SweepAccuracyArgs {
     /// reference for that scene and sets its image size.
     #[arg(long)]
     pub cycles: Option<PathBuf>,
+    /// sweep-physical (the visibility, the mean transmittance over all directions) or sweep
+    /// (the paper's geometric mode, at its defaults: the extinction's half-maximum surface,
+    /// gamma 2, all octants).
+    #[arg(long, default_value = "sweep-physical")]
+    pub method: String,
     /// Square image side for the scenes measured against the Monte Carlo reference.
     #[arg(long, default_value_t = 128)]
     pub size: u32,
@@ -110,6 +116,13 @@ pub fn run(args: &SweepAccuracyArgs, quiet: bool) -> Result<()> {
     if let Some(line) = notice {
         crate::progress::notice(quiet, line);
     }
+    let method: AoMethod = args.method.parse()?;
+    if matches!(method, AoMethod::Vao(_)) {
+        return Err(Error::param(
+            "--method",
+            "sweep-physical or sweep (VAO's accuracy: occlux ao-accuracy)",
+        ));
+    }
     let cycles = args.cycles.as_deref().map(read_exr).transpose()?;
     let mut rows = vec![];
     for (index, path) in args.scenes.iter().enumerate() {
@@ -124,12 +137,34 @@ pub fn run(args: &SweepAccuracyArgs, quiet: bool) -> Result<()> {
         scene.camera.width = width;
         scene.camera.height = height;
         let volume = scene.load_volume()?;
-        let started = Instant::now();
-        let extinction = scene.classification.extinction(&volume)?;
-        let extinction_ms = started.elapsed().as_secs_f64() * 1e3;
-        let started = Instant::now();
-        let visibility = ao::sweep::visibility(&compute, &extinction, &NoProgress)?;
-        let sweep_ms = started.elapsed().as_secs_f64() * 1e3;
+        // The physical sweep reads the extinction, timed apart; the geometric mode classifies
+        // inside its own time (extinction_ms 0).
+        let (visibility, extinction_ms, sweep_ms) = if method == AoMethod::SweepPhysical {
+            let started = Instant::now();
+            let extinction = scene.classification.extinction(&volume)?;
+            let extinction_ms = started.elapsed().as_secs_f64() * 1e3;
+            let started = Instant::now();
+            let visibility = ao::sweep::visibility(&compute, &extinction, &NoProgress)?;
+            (
+                visibility,
+                extinction_ms,
+                started.elapsed().as_secs_f64() * 1e3,
+            )
+        } else {
+            let params = AoVolumeParams {
+                method,
+                ..Default::default()
+            };
+            let started = Instant::now();
+            let ao = ao::ao_volume(
+                &compute,
+                &volume,
+                &scene.classification,
+                &params,
+                &NoProgress,
+            )?;
+            (ao.openness, 0.0, started.elapsed().as_secs_f64() * 1e3)
+        };
         let lut = scene.classification.bake(&volume);
         let render_params = RaycastParams {
             shading: Shading::AmbientOcclusion { direct: None },
@@ -214,11 +249,13 @@ pub fn run(args: &SweepAccuracyArgs, quiet: bool) -> Result<()> {
     }
     #[derive(Serialize)]
     struct Report<'a> {
+        method: &'a str,
         device: String,
         cpu_threads: usize,
         rows: &'a [SweepRow],
     }
     let report = Report {
+        method: method.name(),
         device: compute.describe(),
         cpu_threads: rayon::current_num_threads(),
         rows: &rows,
