@@ -176,6 +176,16 @@ impl Camera {
         }
     }
 
+    /// The side of a pixel in world units at `p`: at its depth for a perspective camera.
+    pub fn pixel_footprint(&self, p: Vec3) -> f32 {
+        let (_, hy) = self.half_extent();
+        let span = 2.0 * hy / self.height as f32;
+        match self.projection {
+            Projection::Perspective { .. } => span * (p - self.position).dot(self.forward).abs(),
+            Projection::Orthographic { .. } => span,
+        }
+    }
+
     /// Whether rays share one origin (perspective) rather than one direction.
     pub fn is_perspective(&self) -> bool {
         matches!(self.projection, Projection::Perspective { .. })

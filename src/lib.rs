@@ -12,6 +12,7 @@ pub mod export;
 pub mod gpu;
 pub mod json;
 pub mod lights;
+pub mod octahedral;
 pub mod pipeline;
 pub mod progress;
 pub mod registry;

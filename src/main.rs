@@ -5,7 +5,9 @@ use occlux::ao::commands::{ao_reference_volume, ao_volume};
 use occlux::ao::reference::AoVariant;
 use occlux::ao::sweep::geometric::GeometricParams;
 use occlux::ao::AoVolumeParams;
-use occlux::eval::{bench, dos_accuracy, sweep_accuracy, sweep_bench, vao_accuracy, vao_bench};
+use occlux::eval::{
+    bench, dos_accuracy, ipsvi_accuracy, sweep_accuracy, sweep_bench, vao_accuracy, vao_bench,
+};
 use occlux::export::exr::Precision;
 use occlux::export::vdb::{Compression, VdbOptions};
 use occlux::gpu::DeviceChoice;
@@ -98,6 +100,11 @@ enum Command {
     /// ambient Monte Carlo reference or a Cycles render (relative RMSE over the volume's
     /// pixels), with the time of each stage; table and JSON.
     SweepAccuracy(sweep_accuracy::SweepAccuracyArgs),
+    /// Image plane sweep volume illumination against the single-scattering Monte Carlo
+    /// reference or a Cycles render (relative RMSE over the volume's pixels), over its line
+    /// width, cache size, piecewise integration and early ray termination, with its time
+    /// beside unshaded DVR's (CPU); table and JSON.
+    IpsviAccuracy(ipsvi_accuracy::IpsviAccuracyArgs),
     /// Occlusion sweeping's geometric mode at the paper's sizes on the box-and-sphere phantom
     /// (CPU): the signed distance alone, with the combined occlusion, with the eight octants;
     /// medians, the occlusion's cost over the signed distance's; table and JSON.
@@ -327,6 +334,7 @@ fn run(cli: Cli) -> occlux::Result<()> {
         Command::AoAccuracy(args) => vao_accuracy::run(&args, quiet),
         Command::DosAccuracy(args) => dos_accuracy::run(&args, quiet),
         Command::SweepAccuracy(args) => sweep_accuracy::run(&args, quiet),
+        Command::IpsviAccuracy(args) => ipsvi_accuracy::run(&args, quiet),
         Command::BenchSweep(args) => sweep_bench::run(&args, quiet),
         Command::Reference {
             scene,

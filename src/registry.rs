@@ -58,9 +58,10 @@ pub enum ParamKind {
         range: Range,
         optional: bool,
     },
-    /// A whole number in `range` (inclusive bounds).
+    /// A whole number in `range` (inclusive bounds); `optional` as for `Float`.
     Int {
         range: Range,
+        optional: bool,
     },
     Bool,
     /// One of the named options.
@@ -174,7 +175,8 @@ impl MethodSpec {
                 Err(Error::param(
                     format!("lights[{i}]"),
                     format!(
-                        "method \"{}\" is lit by {} lights only; remove the others",
+                        "is {}, but method \"{}\" is lit by {} lights only; remove the others",
+                        lighting.lights[i].kind().name(),
                         self.name,
                         kinds.join(", ")
                     ),
@@ -188,7 +190,7 @@ impl ParamSpec {
     /// `value` checked against the parameter's range; the error names `render.KEY`.
     pub fn check(&self, value: f64) -> Result<()> {
         let range = match &self.kind {
-            ParamKind::Float { range, .. } | ParamKind::Int { range } => range,
+            ParamKind::Float { range, .. } | ParamKind::Int { range, .. } => range,
             _ => return Ok(()),
         };
         if range.contains(value) {
@@ -273,7 +275,7 @@ pub fn summary() -> String {
                 Some(value) => value.to_string(),
             };
             let accepts = match &param.kind {
-                ParamKind::Float { range, .. } | ParamKind::Int { range } => range.to_string(),
+                ParamKind::Float { range, .. } | ParamKind::Int { range, .. } => range.to_string(),
                 ParamKind::Bool => "true, false".to_owned(),
                 ParamKind::Choice { options } => options
                     .iter()
@@ -426,6 +428,7 @@ methods! {
     Gradient => crate::render::raycast::GradientParams,
     Ao => crate::render::ao_shaded::AoParams,
     Dos => crate::render::dos::DosParams,
+    Ipsvi => crate::render::ipsvi::IpsviParams,
 }
 
 #[cfg(test)]

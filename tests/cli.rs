@@ -686,8 +686,8 @@ grid = 2
         }
     }
     let occlusion = exr.layer("occlusion").expect("an occlusion layer");
-    assert_eq!(&occlusion.pixels, img.occlusion.as_ref().unwrap());
-    assert!(img.occlusion.unwrap().iter().any(|o| *o < 1.0));
+    assert_eq!(occlusion.pixels, img.factor("occlusion").unwrap());
+    assert!(img.factor("occlusion").unwrap().iter().any(|o| *o < 1.0));
 }
 
 #[test]

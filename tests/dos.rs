@@ -111,8 +111,7 @@ fn slab_closed_form(sigma: f32, params: &DosParams) -> f32 {
 
 fn assert_finite_and_bounded(img: &RenderImage, lut: &Lut, what: &str) {
     let occlusion = img
-        .occlusion
-        .as_ref()
+        .factor("occlusion")
         .expect("DOS writes an occlusion layer");
     // Without emission the image is a convex combination of the lit medium (at most
     // L_a * albedo) and the background.
@@ -227,7 +226,7 @@ fn empty_volume_shows_exactly_the_background() {
             .iter()
             .all(|p| *p == [BACKGROUND, BACKGROUND, BACKGROUND, 0.0]));
         assert!(img.depth.iter().all(|z| *z == BACKGROUND_DEPTH));
-        assert!(img.occlusion.unwrap().iter().all(|o| *o == 1.0));
+        assert!(img.factor("occlusion").unwrap().iter().all(|o| *o == 1.0));
     }
 }
 
@@ -373,7 +372,7 @@ fn occlusion_darkens_the_inside_and_stays_in_unit_range() {
     };
     let img = render(&volume, &lut, &camera, &params);
     assert_finite_and_bounded(&img, &lut, "ct");
-    let occlusion = img.occlusion.unwrap();
+    let occlusion = img.factor("occlusion").unwrap().to_vec();
     let covered: Vec<f32> = occlusion
         .iter()
         .zip(&img.depth)

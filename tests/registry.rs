@@ -96,7 +96,7 @@ fn ranges_are_enforced_at_their_bounds_with_the_key_named() {
     for spec in METHODS {
         for param in spec.params {
             let range = match &param.kind {
-                ParamKind::Float { range, .. } | ParamKind::Int { range } => range,
+                ParamKind::Float { range, .. } | ParamKind::Int { range, .. } => range,
                 _ => continue,
             };
             let is_int = matches!(param.kind, ParamKind::Int { .. });

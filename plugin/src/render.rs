@@ -56,14 +56,15 @@ impl PyRenderResult {
     /// shape (height, width); None for methods that compute none.
     #[getter]
     fn occlusion<'py>(this: &Bound<'py, Self>) -> PyResult<Option<Bound<'py, PyArray2<f32>>>> {
-        let image = &this.get().image;
-        let shape = (image.height as usize, image.width as usize);
-        image
-            .occlusion
-            .as_deref()
-            // SAFETY: as for `beauty`.
-            .map(|o| unsafe { readonly_view(this.clone().into_any(), o, shape) })
-            .transpose()
+        factor(this, "occlusion")
+    }
+
+    /// IPSVI's shadow factor: the lights' transmittance at the depth, weighted by their
+    /// irradiance there (1 = unshadowed), float32, shape (height, width); None for methods that
+    /// compute none.
+    #[getter]
+    fn shadow<'py>(this: &Bound<'py, Self>) -> PyResult<Option<Bound<'py, PyArray2<f32>>>> {
+        factor(this, "shadow")
     }
 
     #[getter]
@@ -88,6 +89,20 @@ impl PyRenderResult {
             self.image.width, self.image.height, self.device
         )
     }
+}
+
+/// The shading factor `name` of a result as a read-only (height, width) array, if it has one.
+fn factor<'py>(
+    this: &Bound<'py, PyRenderResult>,
+    name: &str,
+) -> PyResult<Option<Bound<'py, PyArray2<f32>>>> {
+    let image = &this.get().image;
+    let shape = (image.height as usize, image.width as usize);
+    image
+        .factor(name)
+        // SAFETY: the values belong to this frozen RenderResult, which never changes them.
+        .map(|values| unsafe { readonly_view(this.clone().into_any(), values, shape) })
+        .transpose()
 }
 
 fn parse_device(device: &str) -> PyResult<DeviceChoice> {

@@ -115,7 +115,8 @@ impl Lut {
     #[inline]
     fn coord(x: f32, lo: f32, hi: f32, n: usize) -> (usize, usize, f32) {
         let u = ((x - lo) / (hi - lo) * (n - 1) as f32).clamp(0.0, (n - 1) as f32);
-        let i0 = u.floor() as usize;
+        // u >= 0, so truncation is the floor.
+        let i0 = u as usize;
         let i1 = (i0 + 1).min(n - 1);
         (i0, i1, u - i0 as f32)
     }
@@ -124,6 +125,25 @@ impl Lut {
     fn entry(&self, i: usize, j: usize) -> &[f32] {
         let at = (i + self.size[0] * j) * LUT_STRIDE;
         &self.data[at..at + LUT_STRIDE]
+    }
+
+    /// The extinction of [`Lut::lookup`] alone (light paths need nothing else).
+    #[inline]
+    pub fn sigma_t(&self, v: f32, g: f32) -> f32 {
+        let [lo, hi] = self.value_range;
+        let (i0, i1, fv) = Self::coord(v, lo, hi, self.size[0]);
+        let along = |j: usize| {
+            let (a, b) = (self.entry(i0, j)[0], self.entry(i1, j)[0]);
+            a + (b - a) * fv
+        };
+        match self.gradient_max {
+            None => along(0),
+            Some(gmax) => {
+                let (j0, j1, fg) = Self::coord(g, 0.0, gmax, self.size[1]);
+                let (a, b) = (along(j0), along(j1));
+                a + (b - a) * fg
+            }
+        }
     }
 
     /// Optical properties at value `v` and gradient magnitude `g` (ignored by a 1D table).

@@ -128,7 +128,7 @@ pub fn relative_error(image: &RenderImage, reference: &ReferenceImage) -> Result
 
 /// Mean occlusion factor over the pixels whose opacity reaches 0.5 (NaN if none does).
 pub fn mean_occlusion(image: &RenderImage) -> f64 {
-    let Some(occlusion) = &image.occlusion else {
+    let Some(occlusion) = image.factor("occlusion") else {
         return f64::NAN;
     };
     let (sum, count) = image

@@ -2,6 +2,7 @@
 pub mod bench;
 pub mod cycles;
 pub mod dos_accuracy;
+pub mod ipsvi_accuracy;
 pub mod sweep_accuracy;
 pub mod sweep_bench;
 pub mod vao_accuracy;

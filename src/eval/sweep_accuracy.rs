@@ -186,19 +186,9 @@ pub fn run(args: &SweepAccuracyArgs, quiet: bool) -> Result<()> {
         let render_ms = started.elapsed().as_secs_f64() * 1e3;
         let (reference, (pixels, rel_rmse, rel_bias, reference_noise)) = match against_cycles {
             Some(exr) => {
-                let rgb = exr
-                    .layers
-                    .iter()
-                    .find(|l| {
-                        ["R", "G", "B"]
-                            .iter()
-                            .all(|c| l.channels.iter().any(|n| n == c))
-                    })
+                let pixels = exr
+                    .rgb()
                     .ok_or_else(|| Error::param("--cycles", "no layer with R, G and B"))?;
-                let at = |c: &str| rgb.channels.iter().position(|n| n == c).unwrap_or(0);
-                let (r, g, b, n) = (at("R"), at("G"), at("B"), rgb.channels.len());
-                let pixels: Vec<[f32; 3]> =
-                    rgb.pixels.chunks(n).map(|p| [p[r], p[g], p[b]]).collect();
                 (
                     "cycles".to_owned(),
                     design_error(&image.rgba, &pixels, None, 1.0)?,

@@ -47,13 +47,26 @@ pub struct ExrImage {
 }
 
 impl ExrImage {
+    /// The R, G and B of the first layer that has all three, per pixel.
+    pub fn rgb(&self) -> Option<Vec<[f32; 3]>> {
+        let layer = self.layers.iter().find(|l| {
+            ["R", "G", "B"]
+                .iter()
+                .all(|c| l.channels.iter().any(|n| n == c))
+        })?;
+        let at = |c: &str| layer.channels.iter().position(|n| n == c).unwrap_or(0);
+        let (r, g, b, n) = (at("R"), at("G"), at("B"), layer.channels.len());
+        Some(layer.pixels.chunks(n).map(|p| [p[r], p[g], p[b]]).collect())
+    }
+
     pub fn layer(&self, name: &str) -> Option<&ExrLayer> {
         self.layers.iter().find(|l| l.name == name)
     }
 }
 
-/// The layers of a render: `beauty` (R, G, B, A) and `depth` (Z); a DOS render adds `dos`
-/// (R, G, B, A) and `occlusion` (Y).
+/// The layers of a render: `beauty` (R, G, B, A) and `depth` (Z); a render with a shading
+/// factor adds its shaded image under the method's name (R, G, B, A: `dos`, `ipsvi`) and the
+/// factor (Y: `occlusion`, `shadow`).
 pub fn render_layers(img: &RenderImage) -> Vec<ExrLayer> {
     let rgba = |name: &str| ExrLayer {
         name: name.into(),
@@ -68,14 +81,12 @@ pub fn render_layers(img: &RenderImage) -> Vec<ExrLayer> {
             pixels: img.depth.clone(),
         },
     ];
-    // An occlusion-shaded render (DOS) also carries its shaded image under the method's name,
-    // for compositing next to other methods' layers, and its occlusion factor.
-    if let Some(occlusion) = &img.occlusion {
-        layers.push(rgba("dos"));
+    if let Some(factor) = &img.factor {
+        layers.push(rgba(factor.method));
         layers.push(ExrLayer {
-            name: "occlusion".into(),
+            name: factor.name.into(),
             channels: vec!["Y".into()],
-            pixels: occlusion.clone(),
+            pixels: factor.values.clone(),
         });
     }
     layers
@@ -248,7 +259,7 @@ mod tests {
                 .map(|i| [i as f32 * 0.1, 0.5, 2.0, 1.0 - i as f32 * 0.2])
                 .collect(),
             depth: vec![1.5, 2.25, crate::render::BACKGROUND_DEPTH, 3.0, 4.0, 5.0],
-            occlusion: None,
+            factor: None,
         };
         render_layers(&img)
     }

@@ -116,6 +116,7 @@ const AO_RADIUS: ParamSpec = ParamSpec {
     doc: "Tangent-sphere radius in voxels (VAO's estimators)",
     kind: ParamKind::Int {
         range: Range::closed(1.0, MAX_RADIUS as f64),
+        optional: false,
     },
 };
 const AO_FIELD: ParamSpec = ParamSpec {

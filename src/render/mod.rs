@@ -2,6 +2,7 @@
 
 pub mod ao_shaded;
 pub mod dos;
+pub mod ipsvi;
 pub mod occupancy;
 pub mod raycast;
 pub mod reference;
@@ -53,9 +54,19 @@ pub struct RenderImage {
     /// Distance along the ray from the eye to where accumulated opacity crosses 0.5, or
     /// [`BACKGROUND_DEPTH`].
     pub depth: Vec<f32>,
-    /// Methods that shade by occlusion (DOS): the occlusion factor (1 = unoccluded) at the
-    /// depth, 1 where the opacity never reaches 0.5.
-    pub occlusion: Option<Vec<f32>>,
+    /// A method's shading factor at the depth, if it computes one.
+    pub factor: Option<Factor>,
+}
+
+/// A per-pixel shading factor at the depth, 1 where the opacity never reaches 0.5: DOS's
+/// `occlusion` (1 = unoccluded), IPSVI's `shadow` (1 = unshadowed). The EXR holds it as a
+/// layer `name`, and the shaded image again under `method`, for compositing beside other
+/// methods' layers.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Factor {
+    pub method: &'static str,
+    pub name: &'static str,
+    pub values: Vec<f32>,
 }
 
 impl RenderImage {
@@ -66,7 +77,15 @@ impl RenderImage {
             height,
             rgba: vec![[0.0; 4]; n],
             depth: vec![BACKGROUND_DEPTH; n],
-            occlusion: None,
+            factor: None,
         }
+    }
+
+    /// The values of the shading factor called `name`, if the render has it.
+    pub fn factor(&self, name: &str) -> Option<&[f32]> {
+        self.factor
+            .as_ref()
+            .filter(|f| f.name == name)
+            .map(|f| f.values.as_slice())
     }
 }

@@ -170,9 +170,9 @@ impl Volume {
         let [nx, ny, nz] = self.dims;
         let max = Vec3::new((nx - 1) as f32, (ny - 1) as f32, (nz - 1) as f32);
         let c = c.clamp(Vec3::ZERO, max);
-        let base = c.floor();
-        let f = c - base;
-        let (i0, j0, k0) = (base.x as usize, base.y as usize, base.z as usize);
+        // c >= 0, so truncation is the floor (and needs no libm call without SSE4.1).
+        let (i0, j0, k0) = (c.x as usize, c.y as usize, c.z as usize);
+        let f = c - Vec3::new(i0 as f32, j0 as f32, k0 as f32);
         let (i1, j1, k1) = (
             (i0 + 1).min(nx - 1),
             (j0 + 1).min(ny - 1),

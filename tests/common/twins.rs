@@ -43,7 +43,11 @@ pub fn assert_same(a: &RenderImage, b: &RenderImage, relative: f32, occlusion: O
         .fold(1.0f32, f32::max);
     let tolerance = relative * peak;
     let layers = occlusion.map(|limit| {
-        let layer = |img: &RenderImage| img.occlusion.clone().expect("an occlusion layer");
+        let layer = |img: &RenderImage| {
+            img.factor("occlusion")
+                .expect("an occlusion layer")
+                .to_vec()
+        };
         (limit, layer(a), layer(b))
     });
     let mut worst = 0.0f32;

@@ -423,7 +423,7 @@ impl GeometryTable {
                     / (TABLE_SIDE - 1) as f32
                     * 2.0
                     - 1.0;
-                let n = octahedral_decode(uv).as_dvec3();
+                let n = crate::octahedral::decode(uv).as_dvec3();
                 signs.map(|s| {
                     let mirrored = n * s;
                     directions
@@ -443,7 +443,7 @@ impl GeometryTable {
 
     /// Where the unit `n` falls in the table.
     pub fn cell(&self, n: Vec3) -> Cell {
-        let uv = (octahedral_encode(n) + 1.0) * 0.5 * (TABLE_SIDE - 1) as f32;
+        let uv = (crate::octahedral::encode(n) + 1.0) * 0.5 * (TABLE_SIDE - 1) as f32;
         let last = (TABLE_SIDE - 2) as f32;
         let corner = uv.floor().clamp(Vec2::ZERO, Vec2::splat(last));
         let frac = ((uv - corner).clamp(Vec2::ZERO, Vec2::ONE) * 65535.0).round();
@@ -466,35 +466,6 @@ impl GeometryTable {
         let bottom = at(0) + (at(1) - at(0)) * fx;
         let top = at(TABLE_SIDE) + (at(TABLE_SIDE + 1) - at(TABLE_SIDE)) * fx;
         bottom + (top - bottom) * fy
-    }
-}
-
-/// The octahedral map of a unit vector onto [-1, 1]^2 (the lower hemisphere folded outwards).
-fn octahedral_encode(n: Vec3) -> Vec2 {
-    let p = Vec2::new(n.x, n.y) / n.abs().element_sum();
-    if n.z >= 0.0 {
-        p
-    } else {
-        (Vec2::ONE - Vec2::new(p.y, p.x).abs()) * Vec2::new(sign(p.x), sign(p.y))
-    }
-}
-
-fn octahedral_decode(uv: Vec2) -> Vec3 {
-    let z = 1.0 - uv.x.abs() - uv.y.abs();
-    let xy = if z >= 0.0 {
-        uv
-    } else {
-        (Vec2::ONE - Vec2::new(uv.y, uv.x).abs()) * Vec2::new(sign(uv.x), sign(uv.y))
-    };
-    Vec3::new(xy.x, xy.y, z).normalize()
-}
-
-/// +1 or -1 (+1 at zero, so the fold is continuous on the axes).
-fn sign(x: f32) -> f32 {
-    if x >= 0.0 {
-        1.0
-    } else {
-        -1.0
     }
 }
 
@@ -524,14 +495,6 @@ mod tests {
             Vec3::NEG_Z,
         ]);
         d
-    }
-
-    #[test]
-    fn octahedral_map_round_trips() {
-        for n in directions() {
-            let back = octahedral_decode(octahedral_encode(n));
-            assert!((back - n).length() < 1e-5, "{n} -> {back}");
-        }
     }
 
     #[test]

@@ -19,6 +19,7 @@ pub const GRID: ParamSpec = ParamSpec {
     doc: "n: the cone base is sampled on an n x n grid",
     kind: ParamKind::Int {
         range: Range::closed(1.0, MAX_GRID as f64),
+        optional: false,
     },
 };
 pub const SLICE_DISTANCE: ParamSpec = ParamSpec {

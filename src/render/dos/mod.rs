@@ -375,7 +375,11 @@ pub fn finish(
         *rgba = [c.x, c.y, c.z, 1.0 - e[3]];
         *z = dz[0];
     }
-    img.occlusion = Some(depth.iter().map(|dz| dz[1]).collect());
+    img.factor = Some(crate::render::Factor {
+        method: "dos",
+        name: "occlusion",
+        values: depth.iter().map(|dz| dz[1]).collect(),
+    });
     img
 }
 

@@ -52,6 +52,17 @@ impl<'a> Medium<'a> {
         self.lut.lookup(self.volume.sample(p), g)
     }
 
+    /// Extinction at `p` (inside the box).
+    #[inline]
+    pub fn sigma_t(&self, p: Vec3) -> f32 {
+        let g = if self.table_2d {
+            self.volume.gradient(p).length()
+        } else {
+            0.0
+        };
+        self.lut.sigma_t(self.volume.sample(p), g)
+    }
+
     /// Optical properties anywhere: the medium inside the box, nothing outside it.
     #[inline]
     pub fn optical_or_empty(&self, p: Vec3) -> Optical {

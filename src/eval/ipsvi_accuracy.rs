@@ -1,0 +1,269 @@
+//! `occlux ipsvi-accuracy`: IPSVI against the path-traced single-scattering truth of the same
+//! scene (Occlux's `single` Monte Carlo reference, or a Cycles render given with `--cycles`),
+//! over its parameters (line width, cache size, piecewise integration, early ray termination),
+//! under each scene's own lights or a lamp; relative RMSE and bias over the volume's pixels
+//! (DESIGN.md), and the median time beside unshaded DVR's, measured in the same run on the CPU.
+
+use super::bench::timed;
+use super::sweep_accuracy::design_error;
+use crate::error::{Error, Result};
+use crate::export::exr::read_exr;
+use crate::lights::Light;
+use crate::progress::NoProgress;
+use crate::render::ipsvi::{self, IpsviInput, IpsviParams};
+use crate::render::raycast::{self, RaycastInput, RaycastParams};
+use crate::render::reference::Estimator;
+use crate::scene::Scene;
+use glam::Vec3;
+use serde::Serialize;
+use std::path::PathBuf;
+
+#[derive(clap::Args, Debug)]
+pub struct IpsviAccuracyArgs {
+    /// Scene files with directional or point lights.
+    #[arg(
+        long,
+        value_delimiter = ',',
+        default_value = "examples/engine-sun.toml"
+    )]
+    pub scenes: Vec<PathBuf>,
+    /// A Cycles render of the first scene under its own lights (e.g.
+    /// ../shared/bench/engine-cycles/sun_ref8192.exr); it replaces the Monte Carlo reference
+    /// for that scene and sets its image size.
+    #[arg(long)]
+    pub cycles: Option<PathBuf>,
+    /// Also measure every scene under a point light X,Y,Z of intensity I (its lights replaced):
+    /// "X,Y,Z,I".
+    #[arg(long)]
+    pub lamp: Option<String>,
+    /// Line widths to measure.
+    #[arg(long, value_delimiter = ',', default_value = "1")]
+    pub line_widths: Vec<u32>,
+    /// Cache sizes to measure; 0: the default, matched to the image.
+    #[arg(long, value_delimiter = ',', default_value = "0")]
+    pub cache_sizes: Vec<u32>,
+    /// Piecewise integration: on, off or both ("on,off").
+    #[arg(long, value_delimiter = ',', default_value = "on")]
+    pub piecewise: Vec<Switch>,
+    /// Early ray termination (threshold 1e-3) on, off (0) or both.
+    #[arg(long, value_delimiter = ',', default_value = "on")]
+    pub ert: Vec<Switch>,
+    /// Square image side for the scenes measured against the Monte Carlo reference.
+    #[arg(long, default_value_t = 128)]
+    pub size: u32,
+    /// Samples per pixel of the Monte Carlo reference.
+    #[arg(long, default_value_t = 256)]
+    pub spp: u32,
+    /// Timed renders per case (median, after one warm-up).
+    #[arg(long, default_value_t = 3)]
+    pub repeats: usize,
+    #[arg(short, long, default_value = "occlux-ipsvi-accuracy.json")]
+    pub out: PathBuf,
+}
+
+#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Switch {
+    On,
+    Off,
+}
+
+/// One case: its parameters, error and time.
+#[derive(Serialize, Debug, Clone)]
+pub struct IpsviRow {
+    pub scene: String,
+    pub light: &'static str,
+    pub reference: String,
+    pub line_width: u32,
+    /// 0: matched to the image.
+    pub cache_size: u32,
+    pub piecewise: bool,
+    pub ert: bool,
+    pub pixels: usize,
+    pub rel_rmse: f64,
+    pub rel_bias: f64,
+    pub reference_noise: f64,
+    /// Median render time, and unshaded DVR's on the same scene in the same run.
+    pub ms: f64,
+    pub dvr_ms: f64,
+}
+
+/// A point light from "X,Y,Z,I".
+fn parse_lamp(text: &str) -> Result<Light> {
+    let values: Vec<f32> = text
+        .split(',')
+        .map(|v| v.trim().parse::<f32>())
+        .collect::<std::result::Result<_, _>>()
+        .map_err(|e| Error::param("--lamp", format!("'{text}': {e}")))?;
+    match values[..] {
+        [x, y, z, i] if values.iter().all(|v| v.is_finite()) && i >= 0.0 => Ok(Light::Point {
+            position: Vec3::new(x, y, z),
+            intensity: Vec3::splat(i),
+        }),
+        _ => Err(Error::param(
+            "--lamp",
+            format!("needs four finite numbers X,Y,Z,I with I >= 0, got '{text}'"),
+        )),
+    }
+}
+
+pub fn run(args: &IpsviAccuracyArgs, quiet: bool) -> Result<()> {
+    if args.scenes.is_empty() {
+        return Err(Error::param("--scenes", "need at least one scene"));
+    }
+    let lamp = args.lamp.as_deref().map(parse_lamp).transpose()?;
+    let cycles = args.cycles.as_deref().map(read_exr).transpose()?;
+    let mut rows = vec![];
+    for (index, path) in args.scenes.iter().enumerate() {
+        let scene = Scene::from_file(path)?;
+        let mut lightings = vec![("scene", scene.lighting.clone())];
+        if let Some(lamp) = lamp {
+            let mut lit = scene.lighting.clone();
+            lit.lights = vec![lamp];
+            lightings.push(("lamp", lit));
+        }
+        let volume = scene.load_volume()?;
+        let lut = scene.classification.bake(&volume);
+        for (light_name, lighting) in lightings {
+            let mut scene = scene.clone();
+            scene.lighting = lighting;
+            let against_cycles = cycles
+                .as_ref()
+                .filter(|_| index == 0 && light_name == "scene");
+            let (width, height) =
+                against_cycles.map_or((args.size, args.size), |c| (c.width, c.height));
+            scene.camera.width = width;
+            scene.camera.height = height;
+            let (reference, truth, stderr) = match against_cycles {
+                Some(exr) => (
+                    "cycles".to_owned(),
+                    exr.rgb()
+                        .ok_or_else(|| Error::param("--cycles", "no layer with R, G and B"))?,
+                    None,
+                ),
+                None => {
+                    let mc = super::dos_accuracy::reference_image(
+                        &scene,
+                        &volume,
+                        &lut,
+                        Estimator::Single,
+                        args.spp,
+                    )?;
+                    let mean = mc.mean.iter().map(|m| [m[0], m[1], m[2]]).collect();
+                    (format!("occlux-single-{}", args.spp), mean, Some(mc.stderr))
+                }
+            };
+            let background = scene.lighting.background.element_sum() / 3.0;
+            let dvr_params = RaycastParams::default();
+            let dvr = RaycastInput {
+                volume: &volume,
+                lut: &lut,
+                camera: &scene.camera,
+                lighting: &scene.lighting,
+                params: &dvr_params,
+                ao: None,
+            };
+            let dvr_ms = timed(args.repeats, || {
+                raycast::render(&crate::gpu::Compute::Cpu, &dvr, &NoProgress)
+            })?
+            .median_ms;
+            for &line_width in &args.line_widths {
+                for &cache_size in &args.cache_sizes {
+                    for &piecewise in &args.piecewise {
+                        for &ert in &args.ert {
+                            let params = IpsviParams {
+                                line_width,
+                                cache_size: (cache_size > 0).then_some(cache_size),
+                                piecewise: piecewise == Switch::On,
+                                ert_threshold: if ert == Switch::On { 1e-3 } else { 0.0 },
+                                ..IpsviParams::default()
+                            };
+                            let input = IpsviInput {
+                                volume: &volume,
+                                lut: &lut,
+                                camera: &scene.camera,
+                                lighting: &scene.lighting,
+                                params: &params,
+                            };
+                            let (image, _) = ipsvi::cpu::render(&input, &NoProgress)?;
+                            let ms =
+                                timed(args.repeats, || ipsvi::cpu::render(&input, &NoProgress))?
+                                    .median_ms;
+                            let (pixels, rel_rmse, rel_bias, reference_noise) =
+                                design_error(&image.rgba, &truth, stderr.as_deref(), background)?;
+                            let row = IpsviRow {
+                                scene: path.display().to_string(),
+                                light: light_name,
+                                reference: reference.clone(),
+                                line_width,
+                                cache_size,
+                                piecewise: params.piecewise,
+                                ert: ert == Switch::On,
+                                pixels,
+                                rel_rmse,
+                                rel_bias,
+                                reference_noise,
+                                ms,
+                                dvr_ms,
+                            };
+                            crate::progress::say(
+                                quiet,
+                                format_args!(
+                                    "{:<26} {:<5} vs {:<18} w {:<2} cache {:<5} piecewise {:<3} \
+                                     ert {:<3} rel RMSE {:.4} bias {:+.4} (noise {:.4}) \
+                                     {:.0} ms, DVR {:.0} ms ({:.2}x DVR's speed)",
+                                    row.scene,
+                                    row.light,
+                                    row.reference,
+                                    row.line_width,
+                                    row.cache_size,
+                                    if row.piecewise { "on" } else { "off" },
+                                    if row.ert { "on" } else { "off" },
+                                    row.rel_rmse,
+                                    row.rel_bias,
+                                    row.reference_noise,
+                                    row.ms,
+                                    row.dvr_ms,
+                                    row.dvr_ms / row.ms
+                                ),
+                            );
+                            rows.push(row);
+                        }
+                    }
+                }
+            }
+        }
+    }
+    #[derive(Serialize)]
+    struct Report<'a> {
+        device: String,
+        cpu_threads: usize,
+        rows: &'a [IpsviRow],
+    }
+    let report = Report {
+        device: crate::gpu::Compute::Cpu.describe(),
+        cpu_threads: rayon::current_num_threads(),
+        rows: &rows,
+    };
+    super::write_report(&args.out, &report, quiet)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn lamps_parse_or_say_why_not() {
+        assert_eq!(
+            parse_lamp("1, -2.5, 3, 40").unwrap(),
+            Light::Point {
+                position: Vec3::new(1.0, -2.5, 3.0),
+                intensity: Vec3::splat(40.0),
+            }
+        );
+        for bad in ["1,2,3", "1,2,3,-1", "1,2,nan,4", "a,b,c,d"] {
+            let message = parse_lamp(bad).unwrap_err().to_string();
+            assert!(message.contains("--lamp"), "{bad}: {message}");
+        }
+    }
+}

@@ -1,0 +1,86 @@
+//! IPSVI as a scene method: its `[render]` keys, ranges and registry entry.
+
+use super::{IpsviInput, IpsviParams, MAX_CACHE_SIZE};
+use crate::error::Result;
+use crate::lights::LightKind;
+use crate::registry::{MethodSpec, ParamKind, ParamSpec, Range, RenderMethod};
+use crate::render::raycast::{ERT_THRESHOLD, STEP};
+use crate::render::{Factor, MethodInput, Rendered};
+
+pub const CACHE_SIZE: ParamSpec = ParamSpec {
+    key: "cache_size",
+    doc: "Texels along the longer side of the illumination cache (fitted to the volume as the \
+          light sees it); absent: texels half a pixel (at the volume's centre) or half a voxel wide, \
+          whichever is smaller",
+    kind: ParamKind::Int {
+        range: Range::closed(1.0, MAX_CACHE_SIZE as f64),
+        optional: true,
+    },
+};
+pub const LINE_WIDTH: ParamSpec = ParamSpec {
+    key: "line_width",
+    doc: "Rings or columns of pixels swept together after the first line (one pixel wide)",
+    kind: ParamKind::Int {
+        range: Range::closed(1.0, crate::camera::MAX_IMAGE_SIDE as f64),
+        optional: false,
+    },
+};
+const PIECEWISE: ParamSpec = ParamSpec {
+    key: "piecewise",
+    doc: "Integrate the light along its own path from the cache entry to the sample (off: the \
+          paper's basic scheme, attenuating by the view ray's steps)",
+    kind: ParamKind::Bool,
+};
+pub const G: ParamSpec = ParamSpec {
+    key: "g",
+    doc: "Henyey-Greenstein asymmetry of the phase function (0: isotropic)",
+    kind: ParamKind::Float {
+        range: Range {
+            min: -1.0,
+            max: 1.0,
+            min_inclusive: false,
+            max_inclusive: false,
+        },
+        optional: false,
+    },
+};
+
+impl RenderMethod for IpsviParams {
+    const SPEC: MethodSpec = MethodSpec {
+        name: "ipsvi",
+        summary: "Image plane sweep volume illumination: single scattering with shadows from suns \
+                  and lamps in one ray-casting pass (Sundén et al. 2011); CPU only so far",
+        module: "render::ipsvi",
+        shaders: &[],
+        lights: &[LightKind::Directional, LightKind::Point],
+        layers: &["beauty", "depth", "ipsvi", "shadow"],
+        grids: &[],
+        params: &[CACHE_SIZE, LINE_WIDTH, PIECEWISE, G, STEP, ERT_THRESHOLD],
+    };
+
+    fn resolve(self) -> Result<Self> {
+        self.validate()?;
+        Ok(self)
+    }
+
+    /// Renders on the CPU whatever the device: the GPU twin is not written yet.
+    fn render(&self, input: &MethodInput) -> Result<Rendered> {
+        let ipsvi_input = IpsviInput {
+            volume: input.volume,
+            lut: input.lut,
+            camera: input.camera,
+            lighting: input.lighting,
+            params: self,
+        };
+        let (mut image, shadow) = super::cpu::render(&ipsvi_input, input.progress)?;
+        image.factor = Some(Factor {
+            method: "ipsvi",
+            name: "shadow",
+            values: shadow,
+        });
+        Ok(Rendered {
+            image,
+            grids: Vec::new(),
+        })
+    }
+}

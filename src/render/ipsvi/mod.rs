@@ -1,0 +1,157 @@
+//! Image plane sweep volume illumination (Sundén, Ynnerman, Ropinski 2011): single scattering
+//! with shadows from directional and point lights, computed inside the ray caster's one pass.
+//!
+//! The image is rendered line by line in an order ([`sweep`]) in which every light ray's image
+//! is crossed from the light's side onwards. A 2D illumination cache over the light's rays
+//! ([`cache`]) carries the light from line to line: each sample finds its texel by projecting
+//! along the light, reads the light that earlier lines let through there (illumIn), lights
+//! itself with it, and the ray writes what reaches it (illumOut) when it leaves the texel.
+//! Reads come from the cache as the previous lines left it and a line's writes are merged
+//! after it (the paper's ping-pong), so the pixels of a line are independent.
+//!
+//! The optical model is the Monte Carlo `single` reference's (Eq. 2 of the paper, I_ss):
+//! front-to-back compositing as the ray caster's (steps of `step`, midpoint samples, opacity
+//! 1 - exp(-sigma_t dt), early ray termination), and a sample at x scatters
+//! `albedo * p_HG(g, l . d) * E_l(x) * T_l(x)` towards the eye per unit opacity, T_l being the
+//! transmittance of the light from where it enters the volume's box to x.
+//!
+//! How T_l(x) is found:
+//! - `piecewise` (default): each cache entry also holds how far along its ray the light had
+//!   travelled (`s`). A sample at x takes the nearest usable entry behind it, the cache's
+//!   entry for its texel or the last one its own ray wrote there, whichever has the larger
+//!   `s <= s(x)`, and integrates the extinction along its own light ray from x back to that
+//!   point (midpoint rule, steps of `step`), T_l(x) = T_entry * exp(-tau). With no usable entry
+//!   it integrates back to the box. So the light at every sample is the shadow ray's integral,
+//!   cut into pieces shared between lines; the approximation is only that the piece behind an
+//!   entry belongs to a ray up to one texel aside. The order of the sweep, early ray
+//!   termination and material outside the image change only how long the pieces are (the
+//!   cost), never which light is found; the same holds when the light lies along the view and
+//!   every ray carries its own light.
+//! - without it (the paper's basic scheme): T_l(x) is the entry's transmittance as read, and a
+//!   sample lets through `T_l (1 - alpha)`, alpha being its opacity along the view ray: the
+//!   light is attenuated by the material the view rays happened to cross in its texel, not by
+//!   the light's own path. Cheaper, and wrong where view and light paths differ in length.
+//!
+//! Outputs: the image, depth (where the view transmittance falls through 0.5, as the ray
+//! caster's) and `shadow`: at that depth the lights' transmittance, weighted by their
+//! irradiance there (1 where the depth is background). Several lights are swept one after the
+//! other (single scattering is linear in the lights); emission and background are added once.
+//! Extra memory: two u64 per cache texel (the cache and its merge list grow with the image,
+//! not with the volume).
+
+pub mod cache;
+pub mod cpu;
+mod method;
+pub mod sweep;
+
+use crate::camera::Camera;
+use crate::classify::Lut;
+use crate::error::{Error, Result};
+use crate::lights::{Light, Lighting};
+use crate::registry::RenderMethod;
+use crate::volume::Volume;
+use cache::Resolution;
+use serde::{Deserialize, Serialize};
+
+/// Largest cache side accepted (8192^2 texels are 512 MiB of entries).
+pub const MAX_CACHE_SIZE: u32 = 8192;
+
+/// Parameters of IPSVI: `method = "ipsvi"` in a scene, one key per field.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct IpsviParams {
+    /// Texels along the cache's longer side; None: texels half as wide as a pixel at the
+    /// volume's centre or a voxel, whichever is smaller. A sample's light is interpolated
+    /// between the cache rays around it, and where light grazes a dense body it changes within
+    /// a voxel: on the CT phantom lit from behind (64^2) texels of a voxel erred by 0.30, of half
+    /// a voxel by 0.06 (1.4 times the time); on the engine the two gave the same 0.033.
+    pub cache_size: Option<u32>,
+    /// Rings or columns of pixels per line after the first (which is one pixel wide).
+    pub line_width: u32,
+    /// Integrate the light along its own path back to the entry read (see the module docs).
+    pub piecewise: bool,
+    /// Henyey-Greenstein asymmetry, in (-1, 1).
+    pub g: f32,
+    /// Step along each ray and light path in world units; None: half the smallest voxel spacing.
+    pub step: Option<f32>,
+    /// Early ray termination: stop a view ray when its transmittance falls below this.
+    pub ert_threshold: f32,
+}
+
+impl Default for IpsviParams {
+    fn default() -> Self {
+        Self {
+            cache_size: None,
+            line_width: 1,
+            piecewise: true,
+            g: 0.0,
+            step: None,
+            ert_threshold: 1e-3,
+        }
+    }
+}
+
+impl IpsviParams {
+    /// Checks every parameter against its registry range.
+    pub fn validate(&self) -> Result<()> {
+        if let Some(size) = self.cache_size {
+            method::CACHE_SIZE.check(size as f64)?;
+        }
+        method::LINE_WIDTH.check(self.line_width as f64)?;
+        method::G.check(self.g as f64)?;
+        crate::render::raycast::STEP.check_optional(self.step)?;
+        crate::render::raycast::ERT_THRESHOLD.check(self.ert_threshold as f64)
+    }
+}
+
+/// What IPSVI reads.
+#[derive(Clone, Copy)]
+pub struct IpsviInput<'a> {
+    pub volume: &'a Volume,
+    pub lut: &'a Lut,
+    pub camera: &'a Camera,
+    pub lighting: &'a Lighting,
+    pub params: &'a IpsviParams,
+}
+
+impl IpsviInput<'_> {
+    /// The cache's resolution: the size asked for, or half a pixel's footprint at the box's
+    /// centre or half a voxel, whichever is smaller.
+    pub fn resolution(&self) -> Resolution {
+        match self.params.cache_size {
+            Some(texels) => Resolution::Texels(texels),
+            None => {
+                let (lo, hi) = self.volume.bounds();
+                let pixel = self.camera.pixel_footprint(0.5 * (lo + hi));
+                let voxel = self.volume.spacing().min_element();
+                Resolution::Footprint((0.5 * pixel.min(voxel)).max(1e-12))
+            }
+        }
+    }
+
+    /// Validates the inputs; returns the step. Lights other than directional and point lights
+    /// are refused by name, as is a point light at the camera (its rays' images are undefined).
+    pub fn setup(&self) -> Result<f32> {
+        self.params.validate()?;
+        self.lighting.validate()?;
+        IpsviParams::SPEC.check_lights(self.lighting)?;
+        for (i, light) in self.lighting.lights.iter().enumerate() {
+            if let Light::Point { position, .. } = light {
+                if (*position - self.camera.position).length()
+                    <= 1e-6 * self.camera.position.length().max(1.0)
+                {
+                    return Err(Error::param(
+                        format!("lights[{i}].position"),
+                        "a point light at the camera's position has no image to sweep from; \
+                         move it off the camera",
+                    ));
+                }
+            }
+        }
+        let raycast = crate::render::raycast::RaycastParams {
+            step: self.params.step,
+            ..Default::default()
+        };
+        raycast.resolve_step(self.volume)
+    }
+}
