@@ -31,7 +31,7 @@ SOURCES = (
     "operators/__init__.py",
     "operators/jobs.py",
     "operators/volume.py",
-    "operators/dos.py",
+    "operators/render.py",
     "operators/check.py",
     "operators/composite.py",
 )

@@ -46,6 +46,11 @@ class VIEW3D_PT_occlux(bpy.types.Panel):
         column.prop(settings, "dos_slice_distance")
         column.prop(settings, "dos_distance")
         layout.operator("occlux.render_dos", icon="RENDER_STILL")
+        column = layout.column(align=True)
+        column.prop(settings, "ipsvi_line_width")
+        column.prop(settings, "ipsvi_cache_size")
+        column.prop(settings, "ipsvi_g")
+        layout.operator("occlux.render_ipsvi", icon="LIGHT_SUN")
         layout.prop(settings, "last_exr")
         composite = layout.operator("occlux.composite", icon="NODE_COMPOSITING")
         composite.filepath = settings.last_exr

@@ -20,6 +20,7 @@ from . import nodes, scenes
 # Blender imports this module.
 DOS = {p["key"]: p for p in scenes.method("dos")["params"]}
 AO = {p["key"]: p for p in scenes.method("ao")["params"]}
+IPSVI = {p["key"]: p for p in scenes.method("ipsvi")["params"]}
 PRESETS = tuple(occlux.PRESETS)
 # Labels for the registry's choice names; the rest are capitalised.
 LABELS = {"cdf": "CDF", "gauss-exact": "Gauss (exact erf)"}
@@ -210,6 +211,22 @@ class OccluxSettings(bpy.types.PropertyGroup):
         items=_items(DOS["distance"]),
         default=DOS["distance"]["default"],
     )
+    ipsvi_line_width: IntProperty(
+        name="Line width",
+        description=f"{IPSVI['line_width']['doc']}, {_range_text(IPSVI['line_width'])}",
+        **_limits(IPSVI["line_width"]),
+        default=IPSVI["line_width"]["default"],
+    )
+    # Optional in the core (absent: matched to the image and the voxels): 0 here stands for
+    # absent and only positive values reach the scene.
+    ipsvi_cache_size: IntProperty(
+        name="Cache size",
+        description=f"{IPSVI['cache_size']['doc']} (0 here: absent)",
+        min=0,
+        max=int(IPSVI["cache_size"]["range"]["max"]),
+        default=0,
+    )
+    ipsvi_g: _registry_float("Anisotropy", IPSVI["g"], precision=2)
     last_exr: StringProperty(
         name="Occlux EXR",
         description="The EXR the last Occlux render wrote (what Composite reads)",

@@ -15,9 +15,12 @@ from typing import Any
 import bpy
 import occlux
 
-# The add-on maps the world to an ambient light and sun lamps to directional lights; these are
-# the kinds of the registry's `lights` it can give a method.
-WORLD, SUN = "ambient", "directional"
+# The add-on maps the world to an ambient light, sun lamps to directional lights and point lamps
+# to point lights; these are the kinds of the registry's `lights` it can give a method.
+WORLD, SUN, POINT = "ambient", "directional", "point"
+
+# What each kind of lamp is called in messages.
+LAMP_NAMES = {SUN: "sun lights", POINT: "point lights"}
 
 # A camera for scenes whose camera is unused (`occlux.ao_volume` reads only the volume and the
 # classification); the scene file requires one.
@@ -144,31 +147,44 @@ def world_radiance(scene: bpy.types.Scene) -> tuple[float, float, float]:
     return tuple(c * strength.default_value for c in colour.default_value[:3])
 
 
+def lamp(obj: bpy.types.Object, kinds: set[str]) -> dict[str, Any]:
+    """A visible lamp as a light of `kinds`: a sun as a directional light (irradiance = strength
+    x colour, towards the sun's +Z), a point lamp as a point light of radiant intensity
+    power / (4 pi) x colour (Cycles' convention; its radius is not modelled: hard shadows)."""
+    if obj.data.type == "SUN" and SUN in kinds:
+        return {
+            "type": SUN,
+            "direction": _floats(obj.matrix_world.col[2].xyz.normalized()),
+            "irradiance": [c * obj.data.energy for c in obj.data.color],
+        }
+    if obj.data.type == "POINT" and POINT in kinds:
+        return {
+            "type": POINT,
+            "position": _floats(obj.matrix_world.translation),
+            "intensity": [c * obj.data.energy / (4.0 * math.pi) for c in obj.data.color],
+        }
+    takes = [LAMP_NAMES[k] for k in (SUN, POINT) if k in kinds]
+    kind = " and ".join(takes) if takes else "only the world's ambient light"
+    raise ValueError(f"light '{obj.name}': this takes {kind}; hide it from renders")
+
+
 def lighting(scene: bpy.types.Scene, kinds: Iterable[str]) -> dict[str, Any]:
-    """The `background` and `lights` of the scene: the world as an ambient light and the
-    visible sun lights as directional lights (irradiance = strength x colour, towards the sun's
-    +Z). `kinds` are the light kinds the method renders (its registry entry's `lights`); a lamp
-    the method cannot render, or that the add-on does not map, is refused."""
+    """The `background` and `lights` of the scene: the world as an ambient light (when the
+    method renders ambient light; it stays the background either way) and the visible lamps
+    (`lamp`). `kinds` are the light kinds the method renders (its registry entry's `lights`); a
+    lamp the method cannot render, or that the add-on does not map, is refused."""
     kinds = set(kinds)
     ambient = _floats(world_radiance(scene))
     lights: list[dict[str, Any]] = []
-    if max(ambient) > 0.0:
+    if WORLD in kinds and max(ambient) > 0.0:
         lights.append({"type": WORLD, "radiance": ambient})
     for obj in scene.objects:
-        if obj.type != "LIGHT" or obj.hide_render:
-            continue
-        if SUN not in kinds or obj.data.type != "SUN":
-            kind = "sun lights" if SUN in kinds else "only the world's ambient light"
-            raise ValueError(f"light '{obj.name}': this takes {kind}; hide it from renders")
-        lights.append(
-            {
-                "type": SUN,
-                "direction": _floats(obj.matrix_world.col[2].xyz.normalized()),
-                "irradiance": [c * obj.data.energy for c in obj.data.color],
-            }
-        )
+        if obj.type == "LIGHT" and not obj.hide_render:
+            lights.append(lamp(obj, kinds))
     if not lights:
-        raise ValueError("the scene has no light: give the world a colour or add a sun")
+        wanted = ["give the world a colour"] if WORLD in kinds else []
+        wanted += [f"add a {LAMP_NAMES[k][:-1]}" for k in (SUN, POINT) if k in kinds]
+        raise ValueError(f"the scene has no light: {' or '.join(wanted)}")
     return {"background": ambient, "lights": lights}
 
 

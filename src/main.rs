@@ -38,7 +38,7 @@ struct Cli {
 #[derive(Subcommand)]
 enum Command {
     /// Render a scene file into OUT/ (EXR with layers beauty and depth, plus dos and occlusion
-    /// for method = "dos", and a PNG preview).
+    /// for method = "dos" or ipsvi and shadow for "ipsvi", and a PNG preview).
     Render {
         scene: PathBuf,
         #[arg(short, long, default_value = "occlux-out")]

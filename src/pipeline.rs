@@ -125,8 +125,8 @@ impl Default for OutputOptions {
     }
 }
 
-/// Writes `OUT/STEM.exr` (layers `beauty` and `depth`, plus `dos` and `occlusion` for a DOS
-/// render; camera and parameters in the header) and
+/// Writes `OUT/STEM.exr` (layers `beauty` and `depth`, plus the method's shaded layer and factor:
+/// `dos` and `occlusion`, `ipsvi` and `shadow`; camera and parameters in the header) and
 /// the preview `OUT/STEM.png`, creating `out_dir` if needed. Returns the paths written.
 pub fn write_render(
     img: &RenderImage,

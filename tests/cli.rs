@@ -624,14 +624,17 @@ fn bench_ao_times_each_radius_on_a_crop_and_refuses_bad_requests() {
     }
 }
 
-#[test]
-fn render_with_method_dos_writes_dos_and_occlusion_layers() {
+/// `occlux render` of a small CT phantom scene with `lights` and `render`: the EXR's shaded
+/// layer `method` equals `beauty` and the in-process render, and its factor layer `factor`
+/// equals the render's factor, which is below 1 somewhere.
+fn assert_render_writes_factor_layers(lights: &str, render: &str, method: &str, factor: &str) {
     use occlux::export::exr::read_exr;
     let dir = tempfile::tempdir().unwrap();
-    let scene_path = dir.path().join("dos.toml");
+    let scene_path = dir.path().join("scene.toml");
     std::fs::write(
         &scene_path,
-        r#"
+        format!(
+            r#"
 background = 0.1
 [volume]
 phantom = "ct"
@@ -642,14 +645,11 @@ target = [0, 0, 0]
 fov_deg = 40
 width = 12
 height = 10
-[[lights]]
-type = "ambient"
-radiance = 0.5
+{lights}
 [render]
-method = "dos"
-theta_deg = 60
-grid = 2
-"#,
+{render}
+"#
+        ),
     )
     .unwrap();
     let out = dir.path().join("out");
@@ -672,22 +672,89 @@ grid = 2
     let img = pipeline::render(&scene, &volume, &Compute::Cpu, &NoProgress)
         .unwrap()
         .image;
-    let exr = read_exr(&out.join("dos.exr")).unwrap();
-    let dos = exr.layer("dos").expect("a dos layer");
+    let exr = read_exr(&out.join("scene.exr")).unwrap();
+    let shaded = exr.layer(method).expect("the method's layer");
     let beauty = exr.layer("beauty").unwrap();
-    assert_eq!(dos.pixels, beauty.pixels);
+    assert_eq!(shaded.pixels, beauty.pixels);
     let want: Vec<f32> = img.rgba.iter().flatten().copied().collect();
-    assert_eq!(dos.pixels.len(), want.len());
+    assert_eq!(shaded.pixels.len(), want.len());
     // Channels come back in the file's (sorted) order: match them by name.
-    for (c, name) in dos.channels.iter().enumerate() {
+    for (c, name) in shaded.channels.iter().enumerate() {
         let k = ["R", "G", "B", "A"].iter().position(|x| x == name).unwrap();
-        for (p, got) in dos.pixels.iter().skip(c).step_by(4).enumerate() {
+        for (p, got) in shaded.pixels.iter().skip(c).step_by(4).enumerate() {
             assert_eq!(*got, want[4 * p + k], "{name}[{p}]");
         }
     }
-    let occlusion = exr.layer("occlusion").expect("an occlusion layer");
-    assert_eq!(occlusion.pixels, img.factor("occlusion").unwrap());
-    assert!(img.factor("occlusion").unwrap().iter().any(|o| *o < 1.0));
+    let layer = exr.layer(factor).expect("the factor's layer");
+    assert_eq!(layer.pixels, img.factor(factor).unwrap());
+    assert!(img.factor(factor).unwrap().iter().any(|o| *o < 1.0));
+}
+
+#[test]
+fn render_with_method_dos_writes_dos_and_occlusion_layers() {
+    assert_render_writes_factor_layers(
+        "[[lights]]\ntype = \"ambient\"\nradiance = 0.5",
+        "method = \"dos\"\ntheta_deg = 60\ngrid = 2",
+        "dos",
+        "occlusion",
+    );
+}
+
+#[test]
+fn render_with_method_ipsvi_writes_ipsvi_and_shadow_layers() {
+    assert_render_writes_factor_layers(
+        "[[lights]]\ntype = \"directional\"\ndirection = [-0.3, -1.0, 1.2]\nirradiance = 3.0\n\
+         [[lights]]\ntype = \"point\"\nposition = [1.5, -2.5, 2.0]\nintensity = 30.0",
+        "method = \"ipsvi\"\nline_width = 2",
+        "ipsvi",
+        "shadow",
+    );
+}
+
+#[test]
+fn ipsvi_accuracy_measures_against_the_reference_and_names_bad_lamps() {
+    let dir = tempfile::tempdir().unwrap();
+    let json = dir.path().join("ipsvi.json");
+    let demo = concat!(env!("CARGO_MANIFEST_DIR"), "/examples/demo.toml");
+    let run = occlux(&[
+        "ipsvi-accuracy",
+        "--scenes",
+        demo,
+        "--lamp",
+        "1.5,-2.5,2.0,40",
+        "--size",
+        "24",
+        "--spp",
+        "64",
+        "--piecewise",
+        "on,off",
+        "--repeats",
+        "1",
+        "-o",
+        json.to_str().unwrap(),
+    ]);
+    assert!(
+        run.status.success(),
+        "{}",
+        String::from_utf8_lossy(&run.stderr)
+    );
+    let report: serde_json::Value = serde_json::from_slice(&std::fs::read(&json).unwrap()).unwrap();
+    let rows = report["rows"].as_array().unwrap();
+    // The demo's sun (its ambient light left out) and the lamp, piecewise on and off.
+    assert_eq!(rows.len(), 4, "{rows:?}");
+    for row in rows {
+        let error = row["rel_rmse"].as_f64().unwrap();
+        assert!(error.is_finite() && error > 0.0, "{row}");
+        assert!(row["ms"].as_f64().unwrap() > 0.0 && row["dvr_ms"].as_f64().unwrap() > 0.0);
+    }
+    let lights: Vec<&str> = rows.iter().map(|r| r["light"].as_str().unwrap()).collect();
+    assert_eq!(lights, ["scene", "scene", "lamp", "lamp"]);
+    let run = occlux(&["ipsvi-accuracy", "--scenes", demo, "--lamp", "1,2,3"]);
+    let stderr = String::from_utf8_lossy(&run.stderr);
+    assert!(
+        !run.status.success() && stderr.contains("--lamp"),
+        "{stderr}"
+    );
 }
 
 #[test]

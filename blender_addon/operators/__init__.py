@@ -1,5 +1,5 @@
 """The add-on's operators, one module per family: `volume` (load a volume, compute its ambient
-occlusion), `dos` (directional occlusion shading render), `check` (the check against Cycles) and
+occlusion), `render` (method renders: DOS and IPSVI), `check` (the check against Cycles) and
 `composite` (an Occlux EXR layer in the compositor). The long ones are jobs, framed by `jobs`
 (progress, background thread, cancel). Each checks its input first and creates nothing when it
 fails."""
@@ -8,9 +8,9 @@ from __future__ import annotations
 
 import bpy
 
-from . import check, composite, dos, jobs, volume
+from . import check, composite, jobs, render, volume
 
-CLASSES = volume.CLASSES + dos.CLASSES + check.CLASSES + composite.CLASSES
+CLASSES = volume.CLASSES + render.CLASSES + check.CLASSES + composite.CLASSES
 
 
 def register() -> None:

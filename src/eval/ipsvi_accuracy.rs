@@ -1,7 +1,7 @@
 //! `occlux ipsvi-accuracy`: IPSVI against the path-traced single-scattering truth of the same
 //! scene (Occlux's `single` Monte Carlo reference, or a Cycles render given with `--cycles`),
 //! over its parameters (line width, cache size, piecewise integration, early ray termination),
-//! under each scene's own lights or a lamp; relative RMSE and bias over the volume's pixels
+//! under each scene's own directional and point lights (its ambient ones left out) or a lamp; relative RMSE and bias over the volume's pixels
 //! (DESIGN.md), and the median time beside unshaded DVR's, measured in the same run on the CPU.
 
 use super::bench::timed;
@@ -20,7 +20,7 @@ use std::path::PathBuf;
 
 #[derive(clap::Args, Debug)]
 pub struct IpsviAccuracyArgs {
-    /// Scene files with directional or point lights.
+    /// Scene files; their directional and point lights are used (ambient ones are left out).
     #[arg(
         long,
         value_delimiter = ',',
@@ -115,12 +115,29 @@ pub fn run(args: &IpsviAccuracyArgs, quiet: bool) -> Result<()> {
     let cycles = args.cycles.as_deref().map(read_exr).transpose()?;
     let mut rows = vec![];
     for (index, path) in args.scenes.iter().enumerate() {
-        let scene = Scene::from_file(path)?;
-        let mut lightings = vec![("scene", scene.lighting.clone())];
+        let mut scene = Scene::from_file(path)?;
+        // IPSVI renders suns and lamps; the scene's ambient lights are left out of both sides.
+        scene
+            .lighting
+            .lights
+            .retain(|l| !matches!(l, Light::Ambient { .. }));
+        let mut lightings = vec![];
+        if !scene.lighting.lights.is_empty() {
+            lightings.push(("scene", scene.lighting.clone()));
+        }
         if let Some(lamp) = lamp {
             let mut lit = scene.lighting.clone();
             lit.lights = vec![lamp];
             lightings.push(("lamp", lit));
+        }
+        if lightings.is_empty() {
+            return Err(Error::param(
+                "--scenes",
+                format!(
+                    "{} has no directional or point light (give --lamp)",
+                    path.display()
+                ),
+            ));
         }
         let volume = scene.load_volume()?;
         let lut = scene.classification.bake(&volume);

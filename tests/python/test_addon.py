@@ -105,7 +105,8 @@ def test_the_extension_installs_registers_and_reloads(extension: Path, tmp_path:
         extension,
         tmp_path,
         """
-        ops = ("import_volume", "compute_ao", "render_dos", "check_cycles", "composite")
+        ops = ("import_volume", "compute_ao", "render_dos", "render_ipsvi", "check_cycles",
+               "composite")
         result["registered"] = [hasattr(bpy.ops.occlux, op) for op in ops]
         result["panel"] = hasattr(bpy.types, "VIEW3D_PT_occlux")
         result["settings"] = hasattr(bpy.types.Scene, "occlux")
@@ -138,13 +139,16 @@ def test_the_extension_installs_registers_and_reloads(extension: Path, tmp_path:
         result["drawn"] = len(drawn["props"]), sorted(drawn["ops"])
         """,
     )
-    assert result["registered"] == [True] * 5 and result["panel"] and result["settings"]
+    assert result["registered"] == [True] * 6 and result["panel"] and result["settings"]
     assert result["after_disable"] is False and result["after_reload"] is True
     assert result["unknown_props"] == [] and result["unknown_ops"] == [], result
     assert result["drawn"][0] > 20 and result["drawn"][1] == sorted(
         f"occlux.{op}"
-        for op in ("import_volume", "compute_ao", "render_dos", "check_cycles", "composite")
-    ), result["drawn"]
+        for op in (
+            "import_volume", "compute_ao", "render_dos", "render_ipsvi", "check_cycles",
+            "composite",
+        )
+    ), result["drawn"]  # fmt: skip
     # The occlux package came from the wheel inside the extension, not from this checkout.
     assert str(tmp_path) in result["occlux_from"], result["occlux_from"]
 
@@ -547,6 +551,74 @@ result["with_sun"] = attempt(bpy.ops.occlux.render_dos)
     assert result["composite"] == ["FINISHED"] and result["occlusion_to"] == ["ShaderNodeMix"]
     assert "light 'Sun'" in result["with_sun"] and "ambient" in result["with_sun"]
     assert not (tmp_path / "out2").exists()
+
+
+def test_render_ipsvi_lights_by_the_lamps_and_writes_its_layers(
+    extension: Path, tmp_path: Path
+) -> None:
+    out = tmp_path / "out"
+    result, output = blender(
+        extension,
+        tmp_path / "user",
+        CAMERA_AND_WORLD
+        + f"""
+import math
+import occlux.cycles as oc
+s = scene.occlux
+s.volume_path = {str(phantom_npy(tmp_path))!r}
+s.preset = "ct-bone"
+s.output_dir = {str(out) + "/"!r}
+s.device = "cpu"
+scene.render.resolution_percentage = 12  # 48 x 36
+# No lamp yet: IPSVI renders suns and point lamps, not the world.
+result["no_lamp"] = attempt(bpy.ops.occlux.render_ipsvi)
+sun = bpy.data.objects.new("Sun", bpy.data.lights.new("Sun", "SUN"))
+sun.data.energy = 3.0
+sun.rotation_euler = (0.6, 0.2, -0.4)
+scene.collection.objects.link(sun)
+lamp = bpy.data.objects.new("Lamp", bpy.data.lights.new("Lamp", "POINT"))
+lamp.data.energy, lamp.data.color = 400.0, (1.0, 0.5, 0.25)
+lamp.location = (1.5, -2.5, 2.0)
+scene.collection.objects.link(lamp)
+s.ipsvi_line_width, s.ipsvi_cache_size, s.ipsvi_g = 2, 96, 0.3
+bpy.context.view_layer.update()
+result["sun_z"] = list(sun.matrix_world.col[2].xyz.normalized())
+result["op"] = list(bpy.ops.occlux.render_ipsvi())
+result["exr"] = s.last_exr
+_, header = oc.read_channels(s.last_exr)
+result["method"] = json.loads(header["occlux/method"])
+result["lighting"] = json.loads(header["occlux/lighting"])
+result["composite"] = list(bpy.ops.occlux.composite(filepath=s.last_exr, layer="shadow"))
+""",
+    )
+    assert "no light" in result["no_lamp"] and "sun light" in result["no_lamp"], result["no_lamp"]
+    assert result["op"] == ["FINISHED"], output
+    exr = out / "phantom-ipsvi.exr"
+    assert result["exr"] == str(exr) and sorted(p.name for p in out.iterdir()) == [exr.name]
+    method = result["method"]  # the panel's parameters reached the render
+    assert method["method"] == "ipsvi" and method["line_width"] == 2, method
+    assert method["cache_size"] == 96 and method["g"] == pytest.approx(0.3), method
+    lights = result["lighting"]["lights"]  # the lamps, not the world
+    assert [light["type"] for light in lights] == ["directional", "point"], lights
+    assert lights[0]["to_light"] == pytest.approx(result["sun_z"], abs=1e-6)
+    assert lights[0]["irradiance"] == pytest.approx([3.0] * 3)
+    assert lights[1]["position"] == pytest.approx([1.5, -2.5, 2.0])
+    # Cycles' point lamp of power P has radiant intensity P / (4 pi).
+    per_steradian = 400.0 / (4 * np.pi)
+    assert lights[1]["intensity"] == pytest.approx([per_steradian * c for c in (1, 0.5, 0.25)])
+    assert result["lighting"]["background"] == pytest.approx([1.0, 0.9, 0.8])
+    channels = oiio_read(exr)
+    assert sorted(channels) == sorted(
+        [f"beauty.{c}" for c in "RGBA"] + ["depth.Z"] + [f"ipsvi.{c}" for c in "RGBA"]
+        + ["shadow.Y"]
+    )  # fmt: skip
+    alpha, shadow = channels["beauty.A"], channels["shadow.Y"]
+    inside = alpha > 0.5
+    assert inside.sum() > 300 and np.isfinite(channels["ipsvi.R"]).all()
+    assert 0.0 <= shadow.min() and shadow.max() <= 1.0 + 1e-3
+    assert (shadow[inside] < 0.5).any(), "the phantom shadows part of itself"
+    assert (shadow[~inside] == 1.0).all(), "no depth, no shadow"
+    assert result["composite"] == ["FINISHED"]
 
 
 def test_the_guide_figure_script_renders(tmp_path: Path) -> None:

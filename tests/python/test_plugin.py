@@ -453,3 +453,32 @@ def test_dos_renders_expose_the_occlusion_layer_and_other_methods_none() -> None
     np.testing.assert_array_equal(occlusion[~opaque], 1.0)
     gradient = occlux.render(occlux.Scene.from_toml(scene_text(size=(8, 8))), device="cpu")
     assert gradient.occlusion is None
+
+
+def test_ipsvi_renders_shadows_that_agree_with_the_single_scattering_reference() -> None:
+    # The scene's sun alone (IPSVI renders suns and lamps, not ambient light).
+    sun_only = scene_text(size=(32, 32)).replace(
+        'type = "ambient"\nradiance = 0.3\n[[lights]]\n', ""
+    )
+    ipsvi = sun_only.replace('method = "gradient"', 'method = "ipsvi"')
+    scene = occlux.Scene.from_toml(ipsvi)
+    result = occlux.render(scene, device="cpu")
+    shadow = result.shadow
+    assert shadow is not None and shadow.shape == (32, 32) and result.occlusion is None
+    opaque = result.beauty[..., 3] >= 0.5
+    assert opaque.any() and (shadow[opaque] < 0.5).any(), "the phantom shadows itself"
+    np.testing.assert_array_equal(shadow[~opaque], 1.0)
+    # Against the Monte Carlo single-scattering reference of the same scene: the method's error
+    # (a few percent, tests/ipsvi.rs) is far below what dropping the shadows does.
+    reference = occlux.reference(scene, estimator="single", spp=64, seed=3)
+    truth = reference.mean[..., :3]
+    lit = truth.mean(axis=2) > 0
+    error = np.sqrt(np.mean((result.beauty[..., :3] - truth)[lit] ** 2)) / truth[lit].mean()
+    unshadowed = occlux.render(
+        occlux.Scene.from_toml(sun_only.replace('method = "gradient"', 'method = "unshaded"')),
+        device="cpu",
+    )
+    no_shadow = np.sqrt(np.mean((unshadowed.beauty[..., :3] - truth)[lit] ** 2)) / truth[lit].mean()
+    assert error < 0.05 and no_shadow > 4 * error, (error, no_shadow)
+    with pytest.raises(occlux.OccluxError, match="ambient"):
+        occlux.render(occlux.Scene.from_toml(scene_text().replace("gradient", "ipsvi")))

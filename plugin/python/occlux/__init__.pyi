@@ -173,6 +173,12 @@ class RenderResult:
         shape ``(height, width)``; ``None`` for methods that compute none."""
 
     @property
+    def shadow(self) -> npt.NDArray[np.float32] | None:
+        """IPSVI's shadow factor: the lights' transmittance at the depth, weighted by their
+        irradiance there (1 = unshadowed), shape ``(height, width)``; ``None`` for methods that
+        compute none."""
+
+    @property
     def width(self) -> int: ...
     @property
     def height(self) -> int: ...
