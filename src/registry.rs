@@ -382,7 +382,7 @@ macro_rules! methods {
     ($($variant:ident => $params:ty),* $(,)?) => {
         /// A scene's rendering method with its parameters.
         #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-        #[serde(tag = "method", rename_all = "lowercase")]
+        #[serde(tag = "method", rename_all = "kebab-case")]
         pub enum Method {
             $($variant($params),)*
         }
@@ -429,6 +429,7 @@ methods! {
     Ao => crate::render::ao_shaded::AoParams,
     Dos => crate::render::dos::DosParams,
     Ipsvi => crate::render::ipsvi::IpsviParams,
+    HalfAngle => crate::render::half_angle::HalfAngleParams,
 }
 
 #[cfg(test)]

@@ -10,7 +10,11 @@ use crate::error::{Error, Result};
 use crate::export::exr::read_exr;
 use crate::lights::Light;
 use crate::progress::NoProgress;
+use crate::classify::Lut;
+use crate::render::half_angle::{self, HalfAngleInput, HalfAngleParams};
 use crate::render::ipsvi::{self, IpsviInput, IpsviParams};
+use crate::render::RenderImage;
+use crate::volume::Volume;
 use crate::render::raycast::{self, RaycastInput, RaycastParams};
 use crate::render::reference::Estimator;
 use crate::scene::Scene;
@@ -54,6 +58,9 @@ pub struct IpsviAccuracyArgs {
     /// Samples per pixel of the Monte Carlo reference.
     #[arg(long, default_value_t = 256)]
     pub spp: u32,
+    /// Also measure half-angle slicing (Kniss et al. 2003, the paper's baseline) at its defaults.
+    #[arg(long)]
+    pub half_angle: bool,
     /// Timed renders per case (median, after one warm-up).
     #[arg(long, default_value_t = 3)]
     pub repeats: usize,
@@ -68,17 +75,15 @@ pub enum Switch {
     Off,
 }
 
-/// One case: its parameters, error and time.
+/// One case: the method and its parameters, error and time.
 #[derive(Serialize, Debug, Clone)]
 pub struct IpsviRow {
     pub scene: String,
     pub light: &'static str,
     pub reference: String,
-    pub line_width: u32,
-    /// 0: matched to the image.
-    pub cache_size: u32,
-    pub piecewise: bool,
-    pub ert: bool,
+    /// "ipsvi" with its line width, cache size (0: the default), piecewise integration and
+    /// early ray termination, or "half-angle".
+    pub method: String,
     pub pixels: usize,
     pub rel_rmse: f64,
     pub rel_bias: f64,
@@ -86,6 +91,53 @@ pub struct IpsviRow {
     /// Median render time, and unshaded DVR's on the same scene in the same run.
     pub ms: f64,
     pub dvr_ms: f64,
+}
+
+/// A method to measure.
+enum Case {
+    Ipsvi(IpsviParams),
+    HalfAngle(HalfAngleParams),
+}
+
+impl Case {
+    fn render(&self, volume: &Volume, lut: &Lut, scene: &Scene) -> Result<RenderImage> {
+        Ok(match self {
+            Case::Ipsvi(params) => {
+                let input = IpsviInput {
+                    volume,
+                    lut,
+                    camera: &scene.camera,
+                    lighting: &scene.lighting,
+                    params,
+                };
+                ipsvi::cpu::render(&input, &NoProgress)?.0
+            }
+            Case::HalfAngle(params) => {
+                let input = HalfAngleInput {
+                    volume,
+                    lut,
+                    camera: &scene.camera,
+                    lighting: &scene.lighting,
+                    params,
+                };
+                half_angle::cpu::render(&input, &NoProgress)?.0
+            }
+        })
+    }
+
+    fn describe(&self) -> String {
+        let on = |b: bool| if b { "on" } else { "off" };
+        match self {
+            Case::Ipsvi(p) => format!(
+                "ipsvi w {} cache {} piecewise {} ert {}",
+                p.line_width,
+                p.cache_size.unwrap_or(0),
+                on(p.piecewise),
+                on(p.ert_threshold > 0.0)
+            ),
+            Case::HalfAngle(_) => "half-angle".to_owned(),
+        }
+    }
 }
 
 /// A point light from "X,Y,Z,I".
@@ -184,70 +236,61 @@ pub fn run(args: &IpsviAccuracyArgs, quiet: bool) -> Result<()> {
                 raycast::render(&crate::gpu::Compute::Cpu, &dvr, &NoProgress)
             })?
             .median_ms;
+            let mut cases: Vec<Case> = vec![];
             for &line_width in &args.line_widths {
                 for &cache_size in &args.cache_sizes {
                     for &piecewise in &args.piecewise {
                         for &ert in &args.ert {
-                            let params = IpsviParams {
+                            cases.push(Case::Ipsvi(IpsviParams {
                                 line_width,
                                 cache_size: (cache_size > 0).then_some(cache_size),
                                 piecewise: piecewise == Switch::On,
                                 ert_threshold: if ert == Switch::On { 1e-3 } else { 0.0 },
                                 ..IpsviParams::default()
-                            };
-                            let input = IpsviInput {
-                                volume: &volume,
-                                lut: &lut,
-                                camera: &scene.camera,
-                                lighting: &scene.lighting,
-                                params: &params,
-                            };
-                            let (image, _) = ipsvi::cpu::render(&input, &NoProgress)?;
-                            let ms =
-                                timed(args.repeats, || ipsvi::cpu::render(&input, &NoProgress))?
-                                    .median_ms;
-                            let (pixels, rel_rmse, rel_bias, reference_noise) =
-                                design_error(&image.rgba, &truth, stderr.as_deref(), background)?;
-                            let row = IpsviRow {
-                                scene: path.display().to_string(),
-                                light: light_name,
-                                reference: reference.clone(),
-                                line_width,
-                                cache_size,
-                                piecewise: params.piecewise,
-                                ert: ert == Switch::On,
-                                pixels,
-                                rel_rmse,
-                                rel_bias,
-                                reference_noise,
-                                ms,
-                                dvr_ms,
-                            };
-                            crate::progress::say(
-                                quiet,
-                                format_args!(
-                                    "{:<26} {:<5} vs {:<18} w {:<2} cache {:<5} piecewise {:<3} \
-                                     ert {:<3} rel RMSE {:.4} bias {:+.4} (noise {:.4}) \
-                                     {:.0} ms, DVR {:.0} ms ({:.2}x DVR's speed)",
-                                    row.scene,
-                                    row.light,
-                                    row.reference,
-                                    row.line_width,
-                                    row.cache_size,
-                                    if row.piecewise { "on" } else { "off" },
-                                    if row.ert { "on" } else { "off" },
-                                    row.rel_rmse,
-                                    row.rel_bias,
-                                    row.reference_noise,
-                                    row.ms,
-                                    row.dvr_ms,
-                                    row.dvr_ms / row.ms
-                                ),
-                            );
-                            rows.push(row);
+                            }));
                         }
                     }
                 }
+            }
+            if args.half_angle {
+                cases.push(Case::HalfAngle(HalfAngleParams::default()));
+            }
+            for case in &cases {
+                let render = || case.render(&volume, &lut, &scene);
+                let image = render()?;
+                let ms = timed(args.repeats, render)?.median_ms;
+                let (pixels, rel_rmse, rel_bias, reference_noise) =
+                    design_error(&image.rgba, &truth, stderr.as_deref(), background)?;
+                let row = IpsviRow {
+                    scene: path.display().to_string(),
+                    light: light_name,
+                    reference: reference.clone(),
+                    method: case.describe(),
+                    pixels,
+                    rel_rmse,
+                    rel_bias,
+                    reference_noise,
+                    ms,
+                    dvr_ms,
+                };
+                crate::progress::say(
+                    quiet,
+                    format_args!(
+                        "{:<26} {:<5} vs {:<18} {:<44} rel RMSE {:.4} bias {:+.4} (noise {:.4}) \
+                         {:.0} ms, DVR {:.0} ms ({:.2}x DVR's speed)",
+                        row.scene,
+                        row.light,
+                        row.reference,
+                        row.method,
+                        row.rel_rmse,
+                        row.rel_bias,
+                        row.reference_noise,
+                        row.ms,
+                        row.dvr_ms,
+                        row.dvr_ms / row.ms
+                    ),
+                );
+                rows.push(row);
             }
         }
     }

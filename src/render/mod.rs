@@ -2,6 +2,7 @@
 
 pub mod ao_shaded;
 pub mod dos;
+pub mod half_angle;
 pub mod ipsvi;
 pub mod occupancy;
 pub mod raycast;

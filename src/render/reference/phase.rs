@@ -1,9 +1,25 @@
 //! Phase functions and direction sampling. Directions are directions of propagation: light
 //! travelling along `w_in` scatters into `w_out` with probability density p(w_in . w_out).
 
+use crate::registry::{ParamKind, ParamSpec, Range};
 use glam::Vec3;
 use rand::Rng;
 use std::f32::consts::PI;
+
+/// The `[render]` key of the methods that scatter with Henyey-Greenstein's phase function.
+pub const G: ParamSpec = ParamSpec {
+    key: "g",
+    doc: "Henyey-Greenstein asymmetry of the phase function (0: isotropic)",
+    kind: ParamKind::Float {
+        range: Range {
+            min: -1.0,
+            max: 1.0,
+            min_inclusive: false,
+            max_inclusive: false,
+        },
+        optional: false,
+    },
+};
 
 /// Henyey-Greenstein's phase function with asymmetry `g` (0: isotropic, 1/(4 pi)).
 #[inline]

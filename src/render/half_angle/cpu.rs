@@ -1,0 +1,282 @@
+//! Half-angle slicing on the CPU: slabs in order along the half vector, each slab's eye samples
+//! and light-buffer rays in parallel (rayon); no pixel or ray depends on another within a slab,
+//! so images do not depend on threads.
+
+use super::HalfAngleInput;
+use crate::camera::Camera;
+use crate::classify::Optical;
+use crate::error::Result;
+use crate::lights::Light;
+use crate::progress::Progress;
+use crate::render::ipsvi::cache::{CacheMap, Resolution};
+use crate::render::raycast::cpu::emitted;
+use crate::render::reference::medium::Medium;
+use crate::render::reference::phase::henyey_greenstein;
+use crate::render::{RenderImage, BACKGROUND_DEPTH};
+use glam::Vec3;
+use rayon::prelude::*;
+
+/// One pixel's eye state.
+#[derive(Clone, Copy, Debug)]
+struct Eye {
+    /// Light scattered towards the eye by the suns done, by the current one, and emission
+    /// (gathered in the first sun's pass).
+    scattered: Vec3,
+    this_sun: Vec3,
+    emitted: Vec3,
+    /// Transmittance so far: in front of the slab (front to back) or behind it (back to front).
+    transmittance: f32,
+    /// The whole ray's transmittance (back to front: from the extinction-only pre-pass).
+    total: f32,
+    depth: f32,
+    /// Irradiance (grey) and irradiance times the sun's transmittance at the depth, summed
+    /// over suns.
+    lit_at_depth: f32,
+    irradiance_at_depth: f32,
+}
+
+/// The slicing of one sun: the half vector, the slabs' range along it and the light buffer.
+struct Slicing {
+    h: Vec3,
+    /// Direction the light travels.
+    travel: Vec3,
+    to_light: Vec3,
+    irradiance: Vec3,
+    front_to_back: bool,
+    first: f32,
+    slabs: u32,
+    map: CacheMap,
+}
+
+impl Slicing {
+    fn new(input: &HalfAngleInput, to_light: Vec3, irradiance: Vec3, d: f32) -> Option<Self> {
+        let camera = input.camera;
+        let (lo, hi) = input.volume.bounds();
+        let view = camera.forward;
+        let travel = -to_light;
+        let front_to_back = view.dot(travel) >= 0.0;
+        // |v + w| >= sqrt(2) when v . w >= 0, and |w - v| >= sqrt(2) otherwise: never zero.
+        let h = if front_to_back {
+            (view + travel).normalize()
+        } else {
+            (travel - view).normalize()
+        };
+        let along: Vec<f32> = (0..8)
+            .map(|c| Vec3::select(glam::BVec3::new(c & 1 != 0, c & 2 != 0, c & 4 != 0), hi, lo))
+            .map(|corner| corner.dot(h))
+            .collect();
+        let first = along.iter().copied().fold(f32::INFINITY, f32::min);
+        let last = along.iter().copied().fold(f32::NEG_INFINITY, f32::max);
+        let light = Light::Directional {
+            to_light,
+            irradiance,
+        };
+        let map = CacheMap::new(&light, lo, hi, resolution(input))?;
+        Some(Self {
+            h,
+            travel,
+            to_light,
+            irradiance,
+            front_to_back,
+            first,
+            slabs: ((last - first) / d).ceil().max(1.0) as u32,
+            map,
+        })
+    }
+
+    /// The h-coordinate of slab k's middle plane; slabs run along +h, away from the sun.
+    fn middle(&self, k: u32, d: f32) -> f32 {
+        self.first + (k as f32 + 0.5) * d
+    }
+}
+
+/// The light buffer's resolution: the size asked for, or IPSVI's default.
+fn resolution(input: &HalfAngleInput) -> Resolution {
+    match input.params.light_buffer {
+        Some(texels) => Resolution::Texels(texels),
+        None => {
+            let (lo, hi) = input.volume.bounds();
+            let pixel = input.camera.pixel_footprint(0.5 * (lo + hi));
+            let voxel = input.volume.spacing().min_element();
+            Resolution::Footprint((0.5 * pixel.min(voxel)).max(1e-12))
+        }
+    }
+}
+
+/// A view ray's sample in a slab.
+#[derive(Clone, Copy)]
+struct Sample {
+    x: Vec3,
+    /// Distance from the ray's origin, and the length of its crossing of the slab.
+    t: f32,
+    dt: f32,
+    dir: Vec3,
+}
+
+/// Where the view ray of pixel `p` crosses the plane at h-coordinate `c`, with the length of its
+/// crossing of a slab `d` thick there; None behind the camera or outside the box.
+#[inline]
+fn view_sample(camera: &Camera, p: usize, h: Vec3, c: f32, d: f32, bounds: (Vec3, Vec3)) -> Option<Sample> {
+    let ray = camera.ray(p as u32 % camera.width, p as u32 / camera.width);
+    let across = ray.dir.dot(h);
+    if across.abs() < 1e-6 {
+        return None;
+    }
+    let t = (c - ray.origin.dot(h)) / across;
+    let x = ray.origin + t * ray.dir;
+    (t > 0.0 && x.cmpge(bounds.0).all() && x.cmple(bounds.1).all()).then(|| Sample {
+        x,
+        t,
+        dt: d / across.abs(),
+        dir: ray.dir,
+    })
+}
+
+/// Renders on the CPU; also returns the `shadow` factor per pixel.
+pub fn render(input: &HalfAngleInput, progress: &dyn Progress) -> Result<(RenderImage, Vec<f32>)> {
+    let d = input.setup()?;
+    let camera = input.camera;
+    let medium = Medium::new(input.volume, input.lut);
+    let (lo, hi) = input.volume.bounds();
+    let pixels = (camera.width * camera.height) as usize;
+    let mut eyes = vec![
+        Eye {
+            scattered: Vec3::ZERO,
+            this_sun: Vec3::ZERO,
+            emitted: Vec3::ZERO,
+            transmittance: 1.0,
+            total: 1.0,
+            depth: BACKGROUND_DEPTH,
+            lit_at_depth: 0.0,
+            irradiance_at_depth: 0.0,
+        };
+        pixels
+    ];
+    let slicings: Vec<Slicing> = input
+        .lighting
+        .lights
+        .iter()
+        .filter_map(|light| match *light {
+            Light::Directional {
+                to_light,
+                irradiance,
+            } => Slicing::new(input, to_light, irradiance, d),
+            _ => None,
+        })
+        .collect();
+    let work: u64 = slicings.iter().map(|s| s.slabs as u64).sum();
+    let mut done = 0;
+    for (pass, slicing) in slicings.iter().enumerate() {
+        if !slicing.front_to_back {
+            // The eye's transmittance through the whole ray, for finding the depth on the way
+            // back to front.
+            eyes.par_iter_mut().enumerate().for_each(|(p, eye)| {
+                eye.transmittance = 1.0;
+                eye.total = (0..slicing.slabs).fold(1.0, |t, k| {
+                    match view_sample(camera, p, slicing.h, slicing.middle(k, d), d, (lo, hi)) {
+                        Some(s) => t * (-medium.optical(s.x).sigma_t * s.dt).exp(),
+                        None => t,
+                    }
+                });
+            });
+        } else {
+            eyes.iter_mut().for_each(|eye| eye.transmittance = 1.0);
+        }
+        eyes.iter_mut().for_each(|eye| eye.this_sun = Vec3::ZERO);
+        let mut light = vec![1.0f32; slicing.map.texels()];
+        for k in 0..slicing.slabs {
+            let c = slicing.middle(k, d);
+            let buffer = &light;
+            eyes.par_iter_mut().enumerate().for_each(|(p, eye)| {
+                let Some(sample) = view_sample(camera, p, slicing.h, c, d, (lo, hi)) else {
+                    return;
+                };
+                let optical = medium.optical(sample.x);
+                if optical.sigma_t <= 0.0 && optical.emission == Vec3::ZERO {
+                    return;
+                }
+                let place = slicing.map.place(sample.x);
+                let lit: f32 = place
+                    .corners
+                    .iter()
+                    .zip(place.weights)
+                    .map(|(&texel, w)| w * buffer[texel as usize])
+                    .sum();
+                shade(eye, slicing, &optical, &sample, lit, input.params.g, pass == 0);
+            });
+            light.par_iter_mut().enumerate().for_each(|(texel, t)| {
+                let base = slicing.map.ray_point(texel as u32, 0.0);
+                let across = slicing.travel.dot(slicing.h);
+                let p = base + slicing.travel * ((c - base.dot(slicing.h)) / across);
+                if p.cmpge(lo).all() && p.cmple(hi).all() {
+                    *t *= (-medium.optical(p).sigma_t * d / across).exp();
+                }
+            });
+            done += 1;
+            progress.update(done, work);
+        }
+        eyes.iter_mut().for_each(|eye| eye.scattered += eye.this_sun);
+    }
+    let background = input.lighting.background;
+    let mut image = RenderImage::new(camera.width, camera.height);
+    for (p, eye) in eyes.iter().enumerate() {
+        let t = eye.total.min(eye.transmittance);
+        let c = eye.scattered + eye.emitted + t * background;
+        image.rgba[p] = [c.x, c.y, c.z, 1.0 - t];
+        image.depth[p] = eye.depth;
+    }
+    let shadow = eyes
+        .iter()
+        .map(|e| {
+            if e.irradiance_at_depth > 0.0 {
+                (e.lit_at_depth / e.irradiance_at_depth).clamp(0.0, 1.0)
+            } else {
+                1.0
+            }
+        })
+        .collect();
+    Ok((image, shadow))
+}
+
+/// Adds one slab's sample (the sun's transmittance there `lit`) to the pixel's eye state,
+/// front to back or back to front, and finds the depth.
+#[inline]
+fn shade(
+    eye: &mut Eye,
+    slicing: &Slicing,
+    optical: &Optical,
+    sample: &Sample,
+    lit: f32,
+    g: f32,
+    first_pass: bool,
+) {
+    let alpha = 1.0 - (-optical.sigma_t * sample.dt).exp();
+    // Light travels along -to_light and leaves along -dir: cos = to_light . dir.
+    let phase = henyey_greenstein(g, slicing.to_light.dot(sample.dir));
+    let scattered = optical.albedo * phase * slicing.irradiance * lit * alpha;
+    let own = emitted(optical, alpha, sample.dt);
+    // The transmittance in front of this sample, for the depth.
+    let in_front = if slicing.front_to_back {
+        eye.this_sun += eye.transmittance * scattered;
+        if first_pass {
+            eye.emitted += eye.transmittance * own;
+        }
+        eye.transmittance
+    } else {
+        eye.this_sun = scattered + (1.0 - alpha) * eye.this_sun;
+        if first_pass {
+            eye.emitted = own + (1.0 - alpha) * eye.emitted;
+        }
+        eye.total / (eye.transmittance * (1.0 - alpha)).max(f32::MIN_POSITIVE)
+    };
+    let behind = in_front * (1.0 - alpha);
+    if in_front > 0.5 && behind <= 0.5 {
+        if first_pass {
+            eye.depth = sample.t - 0.5 * sample.dt + (2.0 * in_front).ln() / optical.sigma_t;
+        }
+        let grey = slicing.irradiance.element_sum() / 3.0;
+        eye.irradiance_at_depth += grey;
+        eye.lit_at_depth += grey * lit;
+    }
+    eye.transmittance *= 1.0 - alpha;
+}
