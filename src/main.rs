@@ -85,8 +85,8 @@ enum Command {
         #[command(flatten)]
         output: OutputArgs,
     },
-    /// Time unshaded and gradient DVR and DOS (n = 2, 5, 13) on CPU and GPU (median after
-    /// warm-up), as ratios to gradient DVR; table and JSON.
+    /// Time unshaded and gradient DVR, DOS (n = 2, 5, 13), IPSVI and half-angle slicing on CPU
+    /// and GPU (median after warm-up), as ratios to gradient DVR; table and JSON.
     Bench(bench::BenchArgs),
     /// Time VAO volumes at several radii on CPU and GPU (median after warm-up); table and JSON.
     BenchAo(vao_bench::VaoBenchArgs),

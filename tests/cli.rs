@@ -784,7 +784,15 @@ fn bench_times_the_registered_methods_and_records_their_parameters() {
     let cases: Vec<&str> = rows.iter().map(|r| r["method"].as_str().unwrap()).collect();
     assert_eq!(
         cases,
-        ["unshaded", "gradient", "dos-n2", "dos-n5", "dos-n13"]
+        [
+            "unshaded",
+            "gradient",
+            "dos-n2",
+            "dos-n5",
+            "dos-n13",
+            "ipsvi",
+            "half-angle"
+        ]
     );
     for row in rows {
         // Each row's parameters are a method as a scene's [render] gives it.

@@ -1,15 +1,18 @@
-//! `occlux bench`: times the baseline ray caster (unshaded and gradient DVR) and directional
-//! occlusion shading (n = 2, 5, 13; theta 50 degrees, a slice per voxel, ambient light only)
-//! on the CPU and the GPU at several image sizes on one volume: the median of repeats after a
-//! warm-up render, printed as a table with each method's time over gradient DVR's on the same
-//! device and size, and written as JSON.
+//! `occlux bench`: times the baseline ray caster (unshaded and gradient DVR), directional
+//! occlusion shading (n = 2, 5, 13; theta 50 degrees, a slice per voxel), IPSVI and half-angle
+//! slicing at their defaults, each lit by the scene's lights of the kinds it renders (DOS: the
+//! ambient light; IPSVI and half-angle: the sun), on the CPU and the GPU at several image sizes
+//! on one volume: the median of repeats after a warm-up render, printed as a table with each
+//! method's time over gradient DVR's on the same device and size, and written as JSON.
 
 use crate::error::{Error, Result};
-use crate::eval::dos_accuracy::ambient_only;
 use crate::gpu::{Compute, DeviceChoice};
+use crate::lights::Lighting;
 use crate::progress::NoProgress;
 use crate::registry::{Method, RenderMethod};
 use crate::render::dos::{self, DosInput, DosParams};
+use crate::render::half_angle::HalfAngleParams;
+use crate::render::ipsvi::IpsviParams;
 use crate::render::raycast::{
     cpu, gpu, GradientParams, RaycastInput, RaycastParams, UnshadedParams,
 };
@@ -60,8 +63,8 @@ pub struct BenchRow {
 /// DOS grids timed.
 const DOS_GRIDS: [u32; 3] = [2, 5, 13];
 
-/// The timed cases: the ray caster's registered methods and DOS at each of [`DOS_GRIDS`], at
-/// their registry defaults otherwise.
+/// The timed cases: the ray caster's registered methods, DOS at each of [`DOS_GRIDS`], IPSVI and
+/// half-angle slicing, at their registry defaults otherwise.
 fn cases() -> Vec<(String, Method)> {
     let mut cases = vec![
         (
@@ -83,7 +86,29 @@ fn cases() -> Vec<(String, Method)> {
             Method::Dos(params),
         ));
     }
+    cases.push((
+        IpsviParams::SPEC.name.to_owned(),
+        Method::Ipsvi(IpsviParams::default()),
+    ));
+    cases.push((
+        HalfAngleParams::SPEC.name.to_owned(),
+        Method::HalfAngle(HalfAngleParams::default()),
+    ));
     cases
+}
+
+/// The scene's lights of the kinds `method` renders.
+fn lit_for(method: &Method, lighting: &Lighting) -> Lighting {
+    let kinds = method.spec().lights;
+    Lighting {
+        lights: lighting
+            .lights
+            .iter()
+            .filter(|l| kinds.contains(&l.kind()))
+            .copied()
+            .collect(),
+        background: lighting.background,
+    }
 }
 
 /// What every case renders: the volume, its table, the camera at the size timed, the lights.
@@ -170,8 +195,6 @@ pub fn run(args: &BenchArgs, quiet: bool) -> Result<()> {
     scene.volume.kind = SourceKind::File(args.volume.clone());
     let volume = scene.load_volume()?;
     let lut = scene.classification.bake(&volume);
-    let mut dos_scene = scene.clone();
-    ambient_only(&mut dos_scene);
     let devices = devices(args.device, quiet)?;
     let mut rows = vec![];
     for compute in &devices {
@@ -198,17 +221,13 @@ pub fn run(args: &BenchArgs, quiet: bool) -> Result<()> {
             camera.height = size;
             let mut times: Vec<(String, Method, Timing)> = vec![];
             for (label, method) in cases() {
-                // DOS is lit by the ambient light alone (its registry entry's lights).
-                let lighting = match method {
-                    Method::Dos(_) => &dos_scene.lighting,
-                    _ => &scene.lighting,
-                };
+                let lighting = lit_for(&method, &scene.lighting);
                 let view = View {
                     volume: &volume,
                     classification: &scene.classification,
                     lut: &lut,
                     camera: &camera,
-                    lighting,
+                    lighting: &lighting,
                     compute,
                 };
                 let timing = timed(args.repeats, || {
@@ -232,7 +251,7 @@ pub fn run(args: &BenchArgs, quiet: bool) -> Result<()> {
                 };
                 if !quiet {
                     println!(
-                        "{:<9} {:>5}^2  {}  {:>6.2}x gradient  {}",
+                        "{:<10} {:>5}^2  {}  {:>6.2}x gradient  {}",
                         row.method, row.size, row.timing, row.ratio_to_gradient, row.device
                     );
                 }
