@@ -565,7 +565,11 @@ fn half_angle_slicing_converges_to_the_closed_forms() {
     };
     let behind = |x: f32, z: f32| inside(x, z).then(|| k * SIGMA * 2.0 * (-2.0 * SIGMA).exp());
     for (what, light, expected) in [
-        ("side sun", Vec3::Z, &side as &dyn Fn(f32, f32) -> Option<f32>),
+        (
+            "side sun",
+            Vec3::Z,
+            &side as &dyn Fn(f32, f32) -> Option<f32>,
+        ),
         ("sun behind the cube", Vec3::Y, &behind),
     ] {
         let mut errors = vec![];
@@ -577,7 +581,10 @@ fn half_angle_slicing_converges_to_the_closed_forms() {
             let (img, _) = half_angle(&sunlight(light), &params);
             let (mut squares, mut sum, mut n) = (0.0f64, 0.0f64, 0);
             for (p, rgba) in img.rgba.iter().enumerate() {
-                let (x, z) = (-1.375 + 0.25 * (p % 12) as f32, 1.375 - 0.25 * (p / 12) as f32);
+                let (x, z) = (
+                    -1.375 + 0.25 * (p % 12) as f32,
+                    1.375 - 0.25 * (p / 12) as f32,
+                );
                 let want = expected(x, z).unwrap_or(0.0);
                 assert!(rgba[0].is_finite());
                 squares += ((rgba[0] - want) as f64).powi(2);
@@ -587,7 +594,10 @@ fn half_angle_slicing_converges_to_the_closed_forms() {
             errors.push((squares / n as f64).sqrt() / (sum / n as f64));
         }
         println!("half-angle, {what}: relative RMSE {errors:.4?} at 1 and 8 slices per voxel");
-        assert!(errors[1] < 0.03 && errors[1] < errors[0] / 3.0, "{what}: {errors:?}");
+        assert!(
+            errors[1] < 0.03 && errors[1] < errors[0] / 3.0,
+            "{what}: {errors:?}"
+        );
     }
 }
 
@@ -601,7 +611,11 @@ fn half_angle_slicing_finds_the_depth_either_way_and_refuses_lamps() {
         let (img, shadow) = half_angle(&sunlight(light), &HalfAngleParams::default());
         let want = 2.0 + 2f32.ln() / SIGMA;
         let centre = 5 + 12 * 5;
-        assert!((img.depth[centre] - want).abs() < 0.02, "{light}: {}", img.depth[centre]);
+        assert!(
+            (img.depth[centre] - want).abs() < 0.02,
+            "{light}: {}",
+            img.depth[centre]
+        );
         assert!(shadow[centre] < 1.0 && img.depth[0] == occlux::render::BACKGROUND_DEPTH);
     }
     let (volume, lut) = cube();
@@ -616,6 +630,11 @@ fn half_angle_slicing_finds_the_depth_either_way_and_refuses_lamps() {
         lighting: &lamp,
         params: &HalfAngleParams::default(),
     };
-    let message = half_angle::cpu::render(&input, &NoProgress).unwrap_err().to_string();
-    assert!(message.contains("point") && message.contains("directional"), "{message}");
+    let message = half_angle::cpu::render(&input, &NoProgress)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        message.contains("point") && message.contains("directional"),
+        "{message}"
+    );
 }

@@ -6,18 +6,19 @@
 
 use super::bench::timed;
 use super::sweep_accuracy::design_error;
+use crate::classify::Lut;
 use crate::error::{Error, Result};
 use crate::export::exr::read_exr;
 use crate::lights::Light;
 use crate::progress::NoProgress;
-use crate::classify::Lut;
 use crate::render::half_angle::{self, HalfAngleInput, HalfAngleParams};
+use crate::render::ipsvi::cache::{CacheMap, Resolution};
 use crate::render::ipsvi::{self, IpsviInput, IpsviParams};
-use crate::render::RenderImage;
-use crate::volume::Volume;
 use crate::render::raycast::{self, RaycastInput, RaycastParams};
 use crate::render::reference::Estimator;
+use crate::render::RenderImage;
 use crate::scene::Scene;
+use crate::volume::Volume;
 use glam::Vec3;
 use serde::Serialize;
 use std::path::PathBuf;
@@ -84,6 +85,11 @@ pub struct IpsviRow {
     /// "ipsvi" with its line width, cache size (0: the default), piecewise integration and
     /// early ray termination, or "half-angle".
     pub method: String,
+    /// The first light's cache (IPSVI) or light buffer (half-angle), in texels, and its extra
+    /// memory: two 8-byte entries per texel (IPSVI's cache and merge; half-angle's buffer is
+    /// one f32 per texel).
+    pub cache: [u32; 2],
+    pub cache_bytes: u64,
     pub pixels: usize,
     pub rel_rmse: f64,
     pub rel_bias: f64,
@@ -123,6 +129,27 @@ impl Case {
                 half_angle::cpu::render(&input, &NoProgress)?.0
             }
         })
+    }
+
+    /// The first light's cache map and the bytes it takes.
+    fn cache(&self, volume: &Volume, scene: &Scene) -> ([u32; 2], u64) {
+        let (lo, hi) = volume.bounds();
+        let (texels, bytes_per_texel) = match self {
+            Case::Ipsvi(params) => (params.cache_size, 16),
+            Case::HalfAngle(params) => (params.light_buffer, 4),
+        };
+        let resolution = Resolution::for_view(texels, volume, &scene.camera);
+        scene
+            .lighting
+            .lights
+            .first()
+            .and_then(|light| CacheMap::new(light, lo, hi, resolution))
+            .map_or(([0, 0], 0), |map| {
+                (
+                    [map.size.x, map.size.y],
+                    map.texels() as u64 * bytes_per_texel,
+                )
+            })
     }
 
     fn describe(&self) -> String {
@@ -261,11 +288,14 @@ pub fn run(args: &IpsviAccuracyArgs, quiet: bool) -> Result<()> {
                 let ms = timed(args.repeats, render)?.median_ms;
                 let (pixels, rel_rmse, rel_bias, reference_noise) =
                     design_error(&image.rgba, &truth, stderr.as_deref(), background)?;
+                let (cache, cache_bytes) = case.cache(&volume, &scene);
                 let row = IpsviRow {
                     scene: path.display().to_string(),
                     light: light_name,
                     reference: reference.clone(),
                     method: case.describe(),
+                    cache,
+                    cache_bytes,
                     pixels,
                     rel_rmse,
                     rel_bias,
@@ -276,12 +306,15 @@ pub fn run(args: &IpsviAccuracyArgs, quiet: bool) -> Result<()> {
                 crate::progress::say(
                     quiet,
                     format_args!(
-                        "{:<26} {:<5} vs {:<18} {:<44} rel RMSE {:.4} bias {:+.4} (noise {:.4}) \
-                         {:.0} ms, DVR {:.0} ms ({:.2}x DVR's speed)",
+                        "{:<26} {:<5} vs {:<18} {:<44} cache {}x{} ({:.1} MiB) rel RMSE {:.4} \
+                         bias {:+.4} (noise {:.4}) {:.0} ms, DVR {:.0} ms ({:.2}x DVR's speed)",
                         row.scene,
                         row.light,
                         row.reference,
                         row.method,
+                        row.cache[0],
+                        row.cache[1],
+                        row.cache_bytes as f64 / (1 << 20) as f64,
                         row.rel_rmse,
                         row.rel_bias,
                         row.reference_noise,

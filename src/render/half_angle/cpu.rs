@@ -71,7 +71,9 @@ impl Slicing {
             to_light,
             irradiance,
         };
-        let map = CacheMap::new(&light, lo, hi, resolution(input))?;
+        let resolution =
+            Resolution::for_view(input.params.light_buffer, input.volume, input.camera);
+        let map = CacheMap::new(&light, lo, hi, resolution)?;
         Some(Self {
             h,
             travel,
@@ -90,19 +92,6 @@ impl Slicing {
     }
 }
 
-/// The light buffer's resolution: the size asked for, or IPSVI's default.
-fn resolution(input: &HalfAngleInput) -> Resolution {
-    match input.params.light_buffer {
-        Some(texels) => Resolution::Texels(texels),
-        None => {
-            let (lo, hi) = input.volume.bounds();
-            let pixel = input.camera.pixel_footprint(0.5 * (lo + hi));
-            let voxel = input.volume.spacing().min_element();
-            Resolution::Footprint((0.5 * pixel.min(voxel)).max(1e-12))
-        }
-    }
-}
-
 /// A view ray's sample in a slab.
 #[derive(Clone, Copy)]
 struct Sample {
@@ -116,7 +105,14 @@ struct Sample {
 /// Where the view ray of pixel `p` crosses the plane at h-coordinate `c`, with the length of its
 /// crossing of a slab `d` thick there; None behind the camera or outside the box.
 #[inline]
-fn view_sample(camera: &Camera, p: usize, h: Vec3, c: f32, d: f32, bounds: (Vec3, Vec3)) -> Option<Sample> {
+fn view_sample(
+    camera: &Camera,
+    p: usize,
+    h: Vec3,
+    c: f32,
+    d: f32,
+    bounds: (Vec3, Vec3),
+) -> Option<Sample> {
     let ray = camera.ray(p as u32 % camera.width, p as u32 / camera.width);
     let across = ray.dir.dot(h);
     if across.abs() < 1e-6 {
@@ -202,7 +198,15 @@ pub fn render(input: &HalfAngleInput, progress: &dyn Progress) -> Result<(Render
                     .zip(place.weights)
                     .map(|(&texel, w)| w * buffer[texel as usize])
                     .sum();
-                shade(eye, slicing, &optical, &sample, lit, input.params.g, pass == 0);
+                shade(
+                    eye,
+                    slicing,
+                    &optical,
+                    &sample,
+                    lit,
+                    input.params.g,
+                    pass == 0,
+                );
             });
             light.par_iter_mut().enumerate().for_each(|(texel, t)| {
                 let base = slicing.map.ray_point(texel as u32, 0.0);
@@ -215,7 +219,8 @@ pub fn render(input: &HalfAngleInput, progress: &dyn Progress) -> Result<(Render
             done += 1;
             progress.update(done, work);
         }
-        eyes.iter_mut().for_each(|eye| eye.scattered += eye.this_sun);
+        eyes.iter_mut()
+            .for_each(|eye| eye.scattered += eye.this_sun);
     }
     let background = input.lighting.background;
     let mut image = RenderImage::new(camera.width, camera.height);

@@ -63,6 +63,29 @@ pub enum Resolution {
     Footprint(f32),
 }
 
+impl Resolution {
+    /// `texels` when given; else texels half as wide as a pixel at the volume's centre or a
+    /// voxel, whichever is smaller. Light is interpolated between the grid's rays, and where it
+    /// grazes a dense body it changes within a voxel: on the CT phantom lit from behind (64^2)
+    /// texels of a voxel erred by 0.30, of half a voxel by 0.06 (1.4 times the time); on the
+    /// engine the two gave the same 0.033.
+    pub fn for_view(
+        texels: Option<u32>,
+        volume: &crate::volume::Volume,
+        camera: &crate::camera::Camera,
+    ) -> Self {
+        match texels {
+            Some(texels) => Resolution::Texels(texels),
+            None => {
+                let (lo, hi) = volume.bounds();
+                let pixel = camera.pixel_footprint(0.5 * (lo + hi));
+                let voxel = volume.spacing().min_element();
+                Resolution::Footprint((0.5 * pixel.min(voxel)).max(1e-12))
+            }
+        }
+    }
+}
+
 /// Most texels per side an automatic resolution picks (4096^2 entries are 128 MiB).
 pub const MAX_AUTO_SIZE: u32 = 4096;
 
