@@ -4,6 +4,7 @@
 //#include "common.wgsl"
 //#include "view.wgsl"
 //#include "classify.wgsl"
+//#include "occupancy.wgsl"
 
 const PI: f32 = 3.14159265358979;
 const BACKGROUND_DEPTH: f32 = 1.0e10;
@@ -68,31 +69,10 @@ struct Params {
 @group(0) @binding(7) var ao_openness: texture_3d<f32>;
 @group(0) @binding(8) var ao_opacity: texture_3d<f32>;
 
-// The occupancy cell holding index coordinate c (Occupancy::cell_of).
-fn cell_of(c: vec3<f32>) -> vec3<u32> {
-    let cell = floor(max(c, vec3<f32>(0.0)) / f32(params.cell_voxels));
-    return vec3<u32>(min(cell, vec3<f32>(params.cells) - 1.0));
-}
-
+// Whether the occupancy cell may hold matter (Occupancy::occupied).
 fn occupied(cell: vec3<u32>) -> bool {
     let n = params.cells;
     return occupancy[cell.x + n.x * (cell.y + n.y * cell.z)] != 0u;
-}
-
-// Where the ray (index coordinates c0 + t dc) leaves the cell; outermost cells are unbounded
-// (Occupancy::exit).
-fn cell_exit(cell: vec3<u32>, c0: vec3<f32>, dc: vec3<f32>) -> f32 {
-    let n = params.cells;
-    let side = f32(params.cell_voxels);
-    var t = 3.0e38;
-    for (var a = 0u; a < 3u; a = a + 1u) {
-        if (dc[a] > 0.0 && cell[a] + 1u < n[a]) {
-            t = min(t, (f32(cell[a] + 1u) * side - c0[a]) / dc[a]);
-        } else if (dc[a] < 0.0 && cell[a] > 0u) {
-            t = min(t, (f32(cell[a]) * side - c0[a]) / dc[a]);
-        }
-    }
-    return t;
 }
 
 fn sample_at(p: vec3<f32>) -> f32 {
@@ -207,10 +187,11 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
         let ta = span.x + f32(k) * step;
         let dt = min(span.y - ta, step);
         let p = origin + (ta + 0.5 * dt) * dir;
-        let cell = cell_of(index_of(params.view, p));
+        let cell = occupancy_cell(index_of(params.view, p), params.cells, params.cell_voxels);
         if (!occupied(cell)) {
             // Resume at the first step whose midpoint lies at or beyond the cell's exit.
-            let next = ceil((cell_exit(cell, index_origin, index_dir) - span.x) / step - 0.5);
+            let leave = occupancy_exit(cell, index_origin, index_dir, params.cells, params.cell_voxels);
+            let next = ceil((leave - span.x) / step - 0.5);
             if (!(next < f32(steps))) {
                 break;
             }

@@ -33,32 +33,38 @@ fn sign(x: f32) -> f32 {
     }
 }
 
+/// Directions for tests: a spiral over the sphere plus the axes and the diagonals, where the map
+/// folds.
+#[cfg(test)]
+pub(crate) fn test_directions() -> Vec<Vec3> {
+    let mut directions: Vec<Vec3> = (0..400)
+        .map(|i| {
+            let z = 1.0 - 2.0 * (i as f32 + 0.5) / 400.0;
+            let phi = i as f32 * 2.399_963;
+            let r = (1.0 - z * z).sqrt();
+            Vec3::new(r * phi.cos(), r * phi.sin(), z)
+        })
+        .collect();
+    for x in [-1.0, 0.0, 1.0] {
+        for y in [-1.0, 0.0, 1.0] {
+            for z in [-1.0, 0.0, 1.0] {
+                let d = Vec3::new(x, y, z);
+                if d != Vec3::ZERO {
+                    directions.push(d.normalize());
+                }
+            }
+        }
+    }
+    directions
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
 
     #[test]
     fn round_trips() {
-        // A spiral over the sphere plus the axes and diagonals, where the map folds.
-        let mut directions: Vec<Vec3> = (0..400)
-            .map(|i| {
-                let z = 1.0 - 2.0 * (i as f32 + 0.5) / 400.0;
-                let phi = i as f32 * 2.399_963;
-                let r = (1.0 - z * z).sqrt();
-                Vec3::new(r * phi.cos(), r * phi.sin(), z)
-            })
-            .collect();
-        for x in [-1.0, 0.0, 1.0] {
-            for y in [-1.0, 0.0, 1.0] {
-                for z in [-1.0, 0.0, 1.0] {
-                    let d = Vec3::new(x, y, z);
-                    if d != Vec3::ZERO {
-                        directions.push(d.normalize());
-                    }
-                }
-            }
-        }
-        for n in directions {
+        for n in test_directions() {
             let back = decode(encode(n));
             assert!((back - n).length() < 1e-5, "{n} -> {back}");
         }

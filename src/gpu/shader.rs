@@ -15,6 +15,19 @@ const SOURCES: &[(&str, &str)] = &[
     ("common.wgsl", include_str!("../../shaders/common.wgsl")),
     ("classify.wgsl", include_str!("../../shaders/classify.wgsl")),
     ("dos.wgsl", include_str!("../../shaders/dos.wgsl")),
+    ("ipsvi.wgsl", include_str!("../../shaders/ipsvi.wgsl")),
+    (
+        "ipsvi_cache.wgsl",
+        include_str!("../../shaders/ipsvi_cache.wgsl"),
+    ),
+    (
+        "ipsvi_merge.wgsl",
+        include_str!("../../shaders/ipsvi_merge.wgsl"),
+    ),
+    (
+        "occupancy.wgsl",
+        include_str!("../../shaders/occupancy.wgsl"),
+    ),
     ("plane.wgsl", include_str!("../../shaders/plane.wgsl")),
     ("raycast.wgsl", include_str!("../../shaders/raycast.wgsl")),
     (

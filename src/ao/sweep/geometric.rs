@@ -473,30 +473,6 @@ impl GeometryTable {
 mod tests {
     use super::*;
 
-    fn directions() -> Vec<Vec3> {
-        // A spiral over the sphere plus the axes and diagonals, where the map folds.
-        let mut d: Vec<Vec3> = (0..400)
-            .map(|i| {
-                let z = 1.0 - 2.0 * (i as f32 + 0.5) / 400.0;
-                let phi = i as f32 * 2.399_963;
-                let r = (1.0 - z * z).sqrt();
-                Vec3::new(r * phi.cos(), r * phi.sin(), z)
-            })
-            .collect();
-        for s in octant_signs() {
-            d.push(Vec3::new(s[0] as f32, s[1] as f32, s[2] as f32).normalize());
-        }
-        d.extend([
-            Vec3::X,
-            Vec3::NEG_X,
-            Vec3::Y,
-            Vec3::NEG_Y,
-            Vec3::Z,
-            Vec3::NEG_Z,
-        ]);
-        d
-    }
-
     #[test]
     fn geometry_term_matches_its_closed_form_in_the_octant() {
         // For N in the octant (+, +, +), N . w >= 0 over it, and Lambert's formula for the
@@ -505,7 +481,7 @@ mod tests {
         // of the closed form with |N|).
         let (one, two) = (GeometryTable::hemisphere(), GeometryTable::two_sided());
         let g = |table: &GeometryTable, n: Vec3| table.share(table.cell(n), 0);
-        for n in directions() {
+        for n in crate::octahedral::test_directions() {
             let closed = n.element_sum() / 4.0;
             if n.min_element() >= 0.0 {
                 assert!((g(one, n) - closed).abs() < 2e-3, "{n}: {}", g(one, n));
@@ -521,7 +497,7 @@ mod tests {
     #[test]
     fn geometry_terms_of_the_eight_octants_sum_to_one() {
         for table in [GeometryTable::hemisphere(), GeometryTable::two_sided()] {
-            for n in directions() {
+            for n in crate::octahedral::test_directions() {
                 let cell = table.cell(n);
                 let sum: f32 = (0..8).map(|s| table.share(cell, s)).sum();
                 assert!((sum - 1.0).abs() < 3e-3, "{n}: {sum}");

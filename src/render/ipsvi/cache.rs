@@ -23,7 +23,7 @@ pub const MAX_PLANAR_DEG: f32 = 60.0;
 
 /// How positions map to the cache.
 #[derive(Clone, Copy, Debug, PartialEq)]
-enum Map {
+pub(super) enum Map {
     /// Parallel rays along `travel`: texel coordinates from the plane coordinates (e1, e2).
     Parallel {
         travel: Vec3,
@@ -185,6 +185,11 @@ impl CacheMap {
                 })
             }
         }
+    }
+
+    /// How positions map to the cache (the GPU twin uploads it).
+    pub(super) fn map(&self) -> Map {
+        self.map
     }
 
     /// Texels in the cache (at least one).

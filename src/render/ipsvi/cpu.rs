@@ -2,8 +2,7 @@
 //! line's cache writes merged by `max` after it (so images do not depend on threads).
 
 use super::cache::{CacheMap, Entry, Place, EMPTY};
-use super::sweep::{Lines, Shape};
-use super::IpsviInput;
+use super::{finish, Gathered, IpsviInput, Sweep};
 use crate::camera::{intersect_box, Ray};
 use crate::classify::Optical;
 use crate::error::Result;
@@ -36,24 +35,12 @@ pub fn render(input: &IpsviInput, progress: &dyn Progress) -> Result<(RenderImag
     let step = input.setup()?;
     let camera = input.camera;
     let occupancy = Occupancy::build(input.volume, input.lut);
-    let (lo, hi) = input.volume.bounds();
-    let lights: Vec<&Light> = input.lighting.lights.iter().collect();
     let pixels = (camera.width * camera.height) as usize;
-    let mut total = vec![PixelOut::default(); pixels];
-    let mut shadow_sums = vec![[0.0f32; 2]; pixels];
-    let mut emitted = vec![Vec3::ZERO; pixels];
-    let mut view = vec![(1.0f32, BACKGROUND_DEPTH); pixels];
-    let sweeps: Vec<(Lines, CacheMap)> = lights
-        .iter()
-        .filter_map(|light| {
-            let shape = Shape::of(light, camera)?;
-            let lines = Lines::new(shape, camera.width, camera.height, input.params.line_width);
-            Some((lines, CacheMap::new(light, lo, hi, input.resolution())?))
-        })
-        .collect();
-    let work: u64 = sweeps.iter().map(|(l, _)| l.count() as u64).sum();
+    let mut gathered = vec![Gathered::default(); pixels];
+    let sweeps = input.sweeps();
+    let work: u64 = sweeps.iter().map(|s| s.lines.count() as u64).sum();
     let mut done = 0;
-    for (pass, (light, (lines, map))) in lights.iter().zip(&sweeps).enumerate() {
+    for (pass, Sweep { light, lines, map }) in sweeps.iter().enumerate() {
         let tracer = Tracer {
             input,
             step,
@@ -86,38 +73,21 @@ pub fn render(input: &IpsviInput, progress: &dyn Progress) -> Result<(RenderImag
                 );
             merge(&mut cache, &mut line_first, &writes);
             for (pixel, out) in outs {
-                let p = pixel as usize;
-                total[p].scattered += out.scattered;
-                shadow_sums[p][0] += out.lit_at_depth;
-                shadow_sums[p][1] += out.irradiance_at_depth;
+                let g = &mut gathered[pixel as usize];
+                g.scattered += out.scattered;
+                g.lit += out.lit_at_depth;
+                g.irradiance += out.irradiance_at_depth;
                 if pass == 0 {
-                    emitted[p] = out.emitted;
-                    view[p] = (out.transmittance, out.depth);
+                    g.emitted = out.emitted;
+                    g.transmittance = out.transmittance;
+                    g.depth = out.depth;
                 }
             }
             done += 1;
             progress.update(done, work);
         }
     }
-    let background = input.lighting.background;
-    let mut image = RenderImage::new(camera.width, camera.height);
-    for p in 0..pixels {
-        let (t, depth) = view[p];
-        let c = total[p].scattered + emitted[p] + t * background;
-        image.rgba[p] = [c.x, c.y, c.z, 1.0 - t];
-        image.depth[p] = depth;
-    }
-    let shadow = shadow_sums
-        .iter()
-        .map(|[lit, e]| {
-            if *e > 0.0 {
-                (lit / e).clamp(0.0, 1.0)
-            } else {
-                1.0
-            }
-        })
-        .collect();
-    Ok((image, shadow))
+    Ok(finish(camera, input.lighting.background, &gathered))
 }
 
 /// Merges one line's writes into the cache: per texel the entry nearest the light among the

@@ -5,6 +5,7 @@ use crate::error::Result;
 use crate::lights::LightKind;
 use crate::registry::{MethodSpec, ParamKind, ParamSpec, Range, RenderMethod};
 use crate::render::raycast::{ERT_THRESHOLD, STEP};
+use crate::render::reference::phase::G;
 use crate::render::{Factor, MethodInput, Rendered};
 
 pub const CACHE_SIZE: ParamSpec = ParamSpec {
@@ -31,27 +32,14 @@ const PIECEWISE: ParamSpec = ParamSpec {
           paper's basic scheme, attenuating by the view ray's steps)",
     kind: ParamKind::Bool,
 };
-pub const G: ParamSpec = ParamSpec {
-    key: "g",
-    doc: "Henyey-Greenstein asymmetry of the phase function (0: isotropic)",
-    kind: ParamKind::Float {
-        range: Range {
-            min: -1.0,
-            max: 1.0,
-            min_inclusive: false,
-            max_inclusive: false,
-        },
-        optional: false,
-    },
-};
 
 impl RenderMethod for IpsviParams {
     const SPEC: MethodSpec = MethodSpec {
         name: "ipsvi",
         summary: "Image plane sweep volume illumination: single scattering with shadows from suns \
-                  and lamps in one ray-casting pass (Sundén et al. 2011); CPU only so far",
+                  and lamps in one ray-casting pass (Sundén et al. 2011)",
         module: "render::ipsvi",
-        shaders: &[],
+        shaders: &["ipsvi.wgsl", "ipsvi_merge.wgsl"],
         lights: &[LightKind::Directional, LightKind::Point],
         layers: &["beauty", "depth", "ipsvi", "shadow"],
         grids: &[],
@@ -63,7 +51,6 @@ impl RenderMethod for IpsviParams {
         Ok(self)
     }
 
-    /// Renders on the CPU whatever the device: the GPU twin is not written yet.
     fn render(&self, input: &MethodInput) -> Result<Rendered> {
         let ipsvi_input = IpsviInput {
             volume: input.volume,
@@ -72,7 +59,7 @@ impl RenderMethod for IpsviParams {
             lighting: input.lighting,
             params: self,
         };
-        let (mut image, shadow) = super::cpu::render(&ipsvi_input, input.progress)?;
+        let (mut image, shadow) = super::render(input.compute, &ipsvi_input, input.progress)?;
         image.factor = Some(Factor {
             method: "ipsvi",
             name: "shadow",

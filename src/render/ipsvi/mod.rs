@@ -37,10 +37,15 @@
 //! irradiance there (1 where the depth is background). Several lights are swept one after the
 //! other (single scattering is linear in the lights); emission and background are added once.
 //! Extra memory: two u64 per cache texel (the cache and its merge list grow with the image,
-//! not with the volume).
+//! not with the volume); on the GPU also a u32 per texel (the texels a line wrote) and a list of
+//! a line's writes (at most 64 MiB: long lines are traced in pieces).
+//!
+//! `cpu` and `gpu` are twins that render the same image (tests/ipsvi_twins.rs states how
+//! closely and why).
 
 pub mod cache;
 pub mod cpu;
+pub mod gpu;
 mod method;
 pub mod sweep;
 
@@ -48,10 +53,14 @@ use crate::camera::Camera;
 use crate::classify::Lut;
 use crate::error::{Error, Result};
 use crate::lights::{Light, Lighting};
+use crate::progress::Progress;
 use crate::registry::RenderMethod;
+use crate::render::{RenderImage, BACKGROUND_DEPTH};
 use crate::volume::Volume;
-use cache::Resolution;
+use cache::{CacheMap, Resolution};
+use glam::Vec3;
 use serde::{Deserialize, Serialize};
+use sweep::{Lines, Shape};
 
 /// Largest cache side accepted (8192^2 texels are 512 MiB of entries).
 pub const MAX_CACHE_SIZE: u32 = 8192;
@@ -61,10 +70,7 @@ pub const MAX_CACHE_SIZE: u32 = 8192;
 #[serde(default, deny_unknown_fields)]
 pub struct IpsviParams {
     /// Texels along the cache's longer side; None: texels half as wide as a pixel at the
-    /// volume's centre or a voxel, whichever is smaller. A sample's light is interpolated
-    /// between the cache rays around it, and where light grazes a dense body it changes within
-    /// a voxel: on the CT phantom lit from behind (64^2) texels of a voxel erred by 0.30, of half
-    /// a voxel by 0.06 (1.4 times the time); on the engine the two gave the same 0.033.
+    /// volume's centre or a voxel, whichever is smaller ([`Resolution::for_view`]).
     pub cache_size: Option<u32>,
     /// Rings or columns of pixels per line after the first (which is one pixel wide).
     pub line_width: u32,
@@ -98,7 +104,7 @@ impl IpsviParams {
             method::CACHE_SIZE.check(size as f64)?;
         }
         method::LINE_WIDTH.check(self.line_width as f64)?;
-        method::G.check(self.g as f64)?;
+        crate::render::reference::phase::G.check(self.g as f64)?;
         crate::render::raycast::STEP.check_optional(self.step)?;
         crate::render::raycast::ERT_THRESHOLD.check(self.ert_threshold as f64)
     }
@@ -115,18 +121,9 @@ pub struct IpsviInput<'a> {
 }
 
 impl IpsviInput<'_> {
-    /// The cache's resolution: the size asked for, or half a pixel's footprint at the box's
-    /// centre or half a voxel, whichever is smaller.
+    /// The cache's resolution: the size asked for, or [`Resolution::for_view`]'s default.
     pub fn resolution(&self) -> Resolution {
-        match self.params.cache_size {
-            Some(texels) => Resolution::Texels(texels),
-            None => {
-                let (lo, hi) = self.volume.bounds();
-                let pixel = self.camera.pixel_footprint(0.5 * (lo + hi));
-                let voxel = self.volume.spacing().min_element();
-                Resolution::Footprint((0.5 * pixel.min(voxel)).max(1e-12))
-            }
-        }
+        Resolution::for_view(self.params.cache_size, self.volume, self.camera)
     }
 
     /// Validates the inputs; returns the step. Lights other than directional and point lights
@@ -153,5 +150,89 @@ impl IpsviInput<'_> {
             ..Default::default()
         };
         raycast.resolve_step(self.volume)
+    }
+
+    /// Each light's sweep, in the lighting's order (after `setup`, every light has one).
+    fn sweeps(&self) -> Vec<Sweep<'_>> {
+        let camera = self.camera;
+        let (lo, hi) = self.volume.bounds();
+        self.lighting
+            .lights
+            .iter()
+            .filter_map(|light| {
+                let shape = Shape::of(light, camera)?;
+                let lines = Lines::new(shape, camera.width, camera.height, self.params.line_width);
+                let map = CacheMap::new(light, lo, hi, self.resolution())?;
+                Some(Sweep { light, lines, map })
+            })
+            .collect()
+    }
+}
+
+/// One light's pass: the order of its lines and its cache's geometry.
+struct Sweep<'a> {
+    light: &'a Light,
+    lines: Lines,
+    map: CacheMap,
+}
+
+/// What one pixel gathers over every light's pass: the scattered light and the irradiance at
+/// the depth (plain and times the light's transmittance) summed over the lights; emission,
+/// view transmittance and depth from the first pass (they are the same in every pass).
+#[derive(Clone, Copy, Debug)]
+struct Gathered {
+    scattered: Vec3,
+    emitted: Vec3,
+    transmittance: f32,
+    depth: f32,
+    lit: f32,
+    irradiance: f32,
+}
+
+impl Default for Gathered {
+    /// A pixel no pass reached: empty.
+    fn default() -> Self {
+        Self {
+            scattered: Vec3::ZERO,
+            emitted: Vec3::ZERO,
+            transmittance: 1.0,
+            depth: BACKGROUND_DEPTH,
+            lit: 0.0,
+            irradiance: 0.0,
+        }
+    }
+}
+
+/// The image (background behind what the view let through) and the shadow factor (1 where
+/// no light reaches the depth) from what every pixel gathered; the twins share it.
+fn finish(camera: &Camera, background: Vec3, gathered: &[Gathered]) -> (RenderImage, Vec<f32>) {
+    let mut image = RenderImage::new(camera.width, camera.height);
+    for (p, g) in gathered.iter().enumerate() {
+        let c = g.scattered + g.emitted + g.transmittance * background;
+        image.rgba[p] = [c.x, c.y, c.z, 1.0 - g.transmittance];
+        image.depth[p] = g.depth;
+    }
+    let shadow = gathered
+        .iter()
+        .map(|g| {
+            if g.irradiance > 0.0 {
+                (g.lit / g.irradiance).clamp(0.0, 1.0)
+            } else {
+                1.0
+            }
+        })
+        .collect();
+    (image, shadow)
+}
+
+/// Renders on the chosen device; also returns the `shadow` factor per pixel.
+pub fn render(
+    compute: &crate::gpu::Compute,
+    input: &IpsviInput,
+    progress: &dyn Progress,
+) -> Result<(RenderImage, Vec<f32>)> {
+    match compute {
+        crate::gpu::Compute::Cpu => cpu::render(input, progress),
+        crate::gpu::Compute::Gpu(ctx) => gpu::render(ctx, input, progress),
     }
 }

@@ -107,6 +107,10 @@ impl GpuVolume<'_> {
     pub(crate) fn lut_buffer(&self) -> &wgpu::Buffer {
         &self.lut_buffer
     }
+    /// The occupancy grid: its cells per axis and its flags' storage buffer.
+    pub(crate) fn occupancy(&self) -> ([usize; 3], &wgpu::Buffer) {
+        (self.cells, &self.occupancy_buffer)
+    }
 }
 
 /// Uploads the inputs and renders.
