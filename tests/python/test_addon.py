@@ -492,6 +492,23 @@ result["scenes"] = [x.name for x in bpy.data.scenes]
     assert result["unchanged"] and result["scenes"] == ["Scene"], "the harness cleaned up"
 
 
+def method_render(tmp_path: Path, out: Path, preset: str) -> str:
+    """The script's start for a method render: the camera and world, the phantom with `preset`,
+    output into `out`, the CPU, 48 x 36 pixels."""
+    return (
+        CAMERA_AND_WORLD
+        + f"""
+import occlux.cycles as oc
+s = scene.occlux
+s.volume_path = {str(phantom_npy(tmp_path))!r}
+s.preset = {preset!r}
+s.output_dir = {str(out) + "/"!r}
+s.device = "cpu"
+scene.render.resolution_percentage = 12  # 48 x 36
+"""
+    )
+
+
 def test_render_dos_writes_the_exr_layers_for_the_compositor(
     extension: Path, tmp_path: Path
 ) -> None:
@@ -499,17 +516,10 @@ def test_render_dos_writes_the_exr_layers_for_the_compositor(
     result, output = blender(
         extension,
         tmp_path / "user",
-        CAMERA_AND_WORLD
+        method_render(tmp_path, out, "ct-soft-tissue")
         + f"""
-import occlux.cycles as oc
-s = scene.occlux
-s.volume_path = {str(phantom_npy(tmp_path))!r}
-s.preset = "ct-soft-tissue"
-s.output_dir = {str(out) + "/"!r}
-s.device = "cpu"
 s.dos_theta_deg, s.dos_grid, s.dos_distance = 30.0, 3, "approximate"
 s.dos_slice_distance = 0.05
-scene.render.resolution_percentage = 12  # 48 x 36
 result["op"] = list(bpy.ops.occlux.render_dos())
 result["exr"] = s.last_exr
 _, header = oc.read_channels(s.last_exr)
@@ -560,16 +570,8 @@ def test_render_ipsvi_lights_by_the_lamps_and_writes_its_layers(
     result, output = blender(
         extension,
         tmp_path / "user",
-        CAMERA_AND_WORLD
-        + f"""
-import math
-import occlux.cycles as oc
-s = scene.occlux
-s.volume_path = {str(phantom_npy(tmp_path))!r}
-s.preset = "ct-bone"
-s.output_dir = {str(out) + "/"!r}
-s.device = "cpu"
-scene.render.resolution_percentage = 12  # 48 x 36
+        method_render(tmp_path, out, "ct-bone")
+        + """
 # No lamp yet: IPSVI renders suns and point lamps, not the world.
 result["no_lamp"] = attempt(bpy.ops.occlux.render_ipsvi)
 sun = bpy.data.objects.new("Sun", bpy.data.lights.new("Sun", "SUN"))

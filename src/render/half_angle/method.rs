@@ -18,8 +18,8 @@ pub const SLICE_DISTANCE: ParamSpec = ParamSpec {
 };
 pub const LIGHT_BUFFER: ParamSpec = ParamSpec {
     key: "light_buffer",
-    doc: "Texels along the light buffer's longer side; absent: half a pixel (at the volume's \
-          centre) or half a voxel wide, whichever is smaller",
+    doc: "Texels along the light buffer's longer side; absent: half a pixel wide at the \
+          volume's centre, at most a voxel",
     kind: ParamKind::Int {
         range: Range::closed(1.0, crate::render::ipsvi::MAX_CACHE_SIZE as f64),
         optional: true,

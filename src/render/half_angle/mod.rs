@@ -47,8 +47,8 @@ pub const MAX_SLICES: f32 = 1.0e5;
 pub struct HalfAngleParams {
     /// Distance between slices along the half vector; None: the smallest voxel spacing.
     pub slice_distance: Option<f32>,
-    /// Texels along the light buffer's longer side; None: half a pixel (at the volume's
-    /// centre) or half a voxel, whichever is smaller, as IPSVI's cache.
+    /// Texels along the light buffer's longer side; None: as IPSVI's cache, half a pixel wide
+    /// at the volume's centre, at most a voxel.
     pub light_buffer: Option<u32>,
     /// Henyey-Greenstein asymmetry, in (-1, 1).
     pub g: f32,

@@ -11,8 +11,7 @@ use crate::render::{Factor, MethodInput, Rendered};
 pub const CACHE_SIZE: ParamSpec = ParamSpec {
     key: "cache_size",
     doc: "Texels along the longer side of the illumination cache (fitted to the volume as the \
-          light sees it); absent: texels half a pixel (at the volume's centre) or half a voxel wide, \
-          whichever is smaller",
+          light sees it); absent: texels half a pixel wide at the volume's centre, at most a voxel",
     kind: ParamKind::Int {
         range: Range::closed(1.0, MAX_CACHE_SIZE as f64),
         optional: true,

@@ -69,8 +69,8 @@ pub const MAX_CACHE_SIZE: u32 = 8192;
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct IpsviParams {
-    /// Texels along the cache's longer side; None: texels half as wide as a pixel at the
-    /// volume's centre or a voxel, whichever is smaller ([`Resolution::for_view`]).
+    /// Texels along the cache's longer side; None: texels half a pixel wide at the volume's
+    /// centre, at most a voxel ([`Resolution::for_view`]).
     pub cache_size: Option<u32>,
     /// Rings or columns of pixels per line after the first (which is one pixel wide).
     pub line_width: u32,
