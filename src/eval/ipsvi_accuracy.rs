@@ -1,16 +1,19 @@
 //! `occlux ipsvi-accuracy`: IPSVI against the path-traced single-scattering truth of the same
 //! scene (Occlux's `single` Monte Carlo reference, or a Cycles render given with `--cycles`),
 //! over its parameters (line width, cache size, piecewise integration, early ray termination),
-//! under each scene's own directional and point lights (its ambient ones left out) or a lamp; relative RMSE and bias over the volume's pixels
-//! (DESIGN.md), and the median time beside unshaded DVR's, measured in the same run on the CPU.
+//! under each scene's own directional and point lights (its ambient ones left out) or a lamp;
+//! relative RMSE and bias over the volume's pixels (DESIGN.md), and the median time beside
+//! unshaded DVR's, measured in the same run on the same device (the CPU by default).
 
 use super::bench::timed;
 use super::sweep_accuracy::design_error;
 use crate::classify::Lut;
 use crate::error::{Error, Result};
 use crate::export::exr::read_exr;
+use crate::gpu::{Compute, DeviceChoice};
 use crate::lights::Light;
 use crate::progress::NoProgress;
+use crate::registry::RenderMethod;
 use crate::render::half_angle::{self, HalfAngleInput, HalfAngleParams};
 use crate::render::ipsvi::cache::{CacheMap, Resolution};
 use crate::render::ipsvi::{self, IpsviInput, IpsviParams};
@@ -59,9 +62,14 @@ pub struct IpsviAccuracyArgs {
     /// Samples per pixel of the Monte Carlo reference.
     #[arg(long, default_value_t = 256)]
     pub spp: u32,
-    /// Also measure half-angle slicing (Kniss et al. 2003, the paper's baseline) at its defaults.
+    /// Also measure half-angle slicing (Kniss et al. 2003, the paper's baseline) at its defaults,
+    /// under suns (it renders no lamps).
     #[arg(long)]
     pub half_angle: bool,
+    /// Where IPSVI and the DVR it is timed against run (half-angle slicing: the CPU); auto
+    /// picks a hardware GPU adapter if one opens.
+    #[arg(long, value_enum, default_value = "cpu")]
+    pub device: DeviceChoice,
     /// Timed renders per case (median, after one warm-up).
     #[arg(long, default_value_t = 3)]
     pub repeats: usize,
@@ -106,7 +114,14 @@ enum Case {
 }
 
 impl Case {
-    fn render(&self, volume: &Volume, lut: &Lut, scene: &Scene) -> Result<RenderImage> {
+    /// Renders IPSVI on `compute`, half-angle slicing on the CPU (it has no GPU twin).
+    fn render(
+        &self,
+        compute: &Compute,
+        volume: &Volume,
+        lut: &Lut,
+        scene: &Scene,
+    ) -> Result<RenderImage> {
         Ok(match self {
             Case::Ipsvi(params) => {
                 let input = IpsviInput {
@@ -116,7 +131,7 @@ impl Case {
                     lighting: &scene.lighting,
                     params,
                 };
-                ipsvi::cpu::render(&input, &NoProgress)?.0
+                ipsvi::render(compute, &input, &NoProgress)?.0
             }
             Case::HalfAngle(params) => {
                 let input = HalfAngleInput {
@@ -191,6 +206,10 @@ pub fn run(args: &IpsviAccuracyArgs, quiet: bool) -> Result<()> {
         return Err(Error::param("--scenes", "need at least one scene"));
     }
     let lamp = args.lamp.as_deref().map(parse_lamp).transpose()?;
+    let (compute, notice) = Compute::resolve(args.device)?;
+    if let Some(line) = notice {
+        crate::progress::notice(quiet, line);
+    }
     let cycles = args.cycles.as_deref().map(read_exr).transpose()?;
     let mut rows = vec![];
     for (index, path) in args.scenes.iter().enumerate() {
@@ -260,7 +279,7 @@ pub fn run(args: &IpsviAccuracyArgs, quiet: bool) -> Result<()> {
                 ao: None,
             };
             let dvr_ms = timed(args.repeats, || {
-                raycast::render(&crate::gpu::Compute::Cpu, &dvr, &NoProgress)
+                raycast::render(&compute, &dvr, &NoProgress)
             })?
             .median_ms;
             let mut cases: Vec<Case> = vec![];
@@ -279,11 +298,12 @@ pub fn run(args: &IpsviAccuracyArgs, quiet: bool) -> Result<()> {
                     }
                 }
             }
-            if args.half_angle {
+            // Half-angle slicing renders suns only: the lamp's rows go without it.
+            if args.half_angle && HalfAngleParams::SPEC.check_lights(&scene.lighting).is_ok() {
                 cases.push(Case::HalfAngle(HalfAngleParams::default()));
             }
             for case in &cases {
-                let render = || case.render(&volume, &lut, &scene);
+                let render = || case.render(&compute, &volume, &lut, &scene);
                 let image = render()?;
                 let ms = timed(args.repeats, render)?.median_ms;
                 let (pixels, rel_rmse, rel_bias, reference_noise) =
@@ -334,7 +354,7 @@ pub fn run(args: &IpsviAccuracyArgs, quiet: bool) -> Result<()> {
         rows: &'a [IpsviRow],
     }
     let report = Report {
-        device: crate::gpu::Compute::Cpu.describe(),
+        device: compute.describe(),
         cpu_threads: rayon::current_num_threads(),
         rows: &rows,
     };
