@@ -716,29 +716,24 @@ fn ipsvi_accuracy_measures_against_the_reference_and_names_bad_lamps() {
     let dir = tempfile::tempdir().unwrap();
     let json = dir.path().join("ipsvi.json");
     let demo = concat!(env!("CARGO_MANIFEST_DIR"), "/examples/demo.toml");
-    let run = occlux(&[
-        "ipsvi-accuracy",
-        "--scenes",
-        demo,
-        "--lamp",
-        "1.5,-2.5,2.0,40",
-        "--size",
-        "24",
-        "--spp",
-        "64",
-        "--piecewise",
-        "on,off",
-        "--repeats",
-        "1",
-        "-o",
-        json.to_str().unwrap(),
-    ]);
-    assert!(
-        run.status.success(),
-        "{}",
-        String::from_utf8_lossy(&run.stderr)
+    let report = report_of(
+        &[
+            "ipsvi-accuracy",
+            "--scenes",
+            demo,
+            "--lamp",
+            "1.5,-2.5,2.0,40",
+            "--size",
+            "24",
+            "--spp",
+            "64",
+            "--piecewise",
+            "on,off",
+            "--repeats",
+            "1",
+        ],
+        &json,
     );
-    let report: serde_json::Value = serde_json::from_slice(&std::fs::read(&json).unwrap()).unwrap();
     let rows = report["rows"].as_array().unwrap();
     // The demo's sun (its ambient light left out) and the lamp, piecewise on and off.
     assert_eq!(rows.len(), 4, "{rows:?}");
