@@ -310,7 +310,12 @@ impl std::fmt::Display for Timing {
 /// Times `repeats` runs of `run` (at least one) after one untimed warm-up run (shader
 /// compilation and first-touch allocation).
 pub(crate) fn timed<T>(repeats: usize, run: impl Fn() -> Result<T>) -> Result<Timing> {
-    run()?;
+    timed_keeping(repeats, run).map(|(timing, _)| timing)
+}
+
+/// As [`timed`], also returning the warm-up run's result (for callers that measure it too).
+pub(crate) fn timed_keeping<T>(repeats: usize, run: impl Fn() -> Result<T>) -> Result<(Timing, T)> {
+    let kept = run()?;
     let mut times: Vec<f64> = (0..repeats.max(1))
         .map(|_| {
             let t = Instant::now();
@@ -324,9 +329,10 @@ pub(crate) fn timed<T>(repeats: usize, run: impl Fn() -> Result<T>) -> Result<Ti
     } else {
         0.5 * (times[n / 2 - 1] + times[n / 2])
     };
-    Ok(Timing {
+    let timing = Timing {
         median_ms: median,
         min_ms: times[0],
         max_ms: times[n - 1],
-    })
+    };
+    Ok((timing, kept))
 }

@@ -5,7 +5,7 @@
 //! relative RMSE and bias over the volume's pixels (DESIGN.md), and the median time beside
 //! unshaded DVR's, measured in the same run on the same device (the CPU by default).
 
-use super::bench::timed;
+use super::bench::{timed, timed_keeping};
 use super::sweep_accuracy::design_error;
 use crate::classify::Lut;
 use crate::error::{Error, Result};
@@ -304,8 +304,8 @@ pub fn run(args: &IpsviAccuracyArgs, quiet: bool) -> Result<()> {
             }
             for case in &cases {
                 let render = || case.render(&compute, &volume, &lut, &scene);
-                let image = render()?;
-                let ms = timed(args.repeats, render)?.median_ms;
+                let (timing, image) = timed_keeping(args.repeats, render)?;
+                let ms = timing.median_ms;
                 let (pixels, rel_rmse, rel_bias, reference_noise) =
                     design_error(&image.rgba, &truth, stderr.as_deref(), background)?;
                 let (cache, cache_bytes) = case.cache(&volume, &scene);

@@ -104,6 +104,38 @@ impl Occupancy {
     }
 }
 
+/// A march along a ray in index coordinates (`index_origin + t index_dir`): `steps` steps of
+/// `step` from `start`, each sampled at its midpoint.
+#[derive(Clone, Copy, Debug)]
+pub struct March {
+    pub index_origin: Vec3,
+    pub index_dir: Vec3,
+    pub start: f32,
+    pub step: f32,
+    pub steps: u32,
+}
+
+impl Occupancy {
+    /// After step `k` of `march`, whose midpoint lies at index coordinate `at`: None when its
+    /// cell may hold matter (sample it); else the step to go on with, the first whose midpoint
+    /// lies at or beyond the cell's exit and at least k + 1 (`march.steps` when none is left,
+    /// or the exit is unbounded or NaN).
+    #[inline]
+    pub fn skip(&self, at: Vec3, k: u32, march: &March) -> Option<u32> {
+        let cell = self.cell_of(at);
+        if self.occupied(cell) {
+            return None;
+        }
+        let t_exit = self.exit(cell, march.index_origin, march.index_dir);
+        let next = ((t_exit - march.start) / march.step - 0.5).ceil();
+        Some(if next.is_nan() || next >= march.steps as f32 {
+            march.steps
+        } else {
+            (next as u32).max(k + 1)
+        })
+    }
+}
+
 #[cfg(test)]
 impl Occupancy {
     /// Every cell flagged: marching with it skips nothing.

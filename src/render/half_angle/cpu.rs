@@ -3,7 +3,7 @@
 //! so images do not depend on threads.
 
 use super::HalfAngleInput;
-use crate::camera::Camera;
+use crate::camera::Ray;
 use crate::classify::Optical;
 use crate::error::Result;
 use crate::lights::Light;
@@ -19,6 +19,8 @@ use rayon::prelude::*;
 /// One pixel's eye state.
 #[derive(Clone, Copy, Debug)]
 struct Eye {
+    /// The pixel's view ray.
+    ray: Ray,
     /// Light scattered towards the eye by the suns done, by the current one, and emission
     /// (gathered in the first sun's pass).
     scattered: Vec3,
@@ -102,18 +104,10 @@ struct Sample {
     dir: Vec3,
 }
 
-/// Where the view ray of pixel `p` crosses the plane at h-coordinate `c`, with the length of its
-/// crossing of a slab `d` thick there; None behind the camera or outside the box.
+/// Where `ray` crosses the plane at h-coordinate `c`, with the length of its crossing of a
+/// slab `d` thick there; None behind the camera or outside the box.
 #[inline]
-fn view_sample(
-    camera: &Camera,
-    p: usize,
-    h: Vec3,
-    c: f32,
-    d: f32,
-    bounds: (Vec3, Vec3),
-) -> Option<Sample> {
-    let ray = camera.ray(p as u32 % camera.width, p as u32 / camera.width);
+fn view_sample(ray: &Ray, h: Vec3, c: f32, d: f32, bounds: (Vec3, Vec3)) -> Option<Sample> {
     let across = ray.dir.dot(h);
     if across.abs() < 1e-6 {
         return None;
@@ -135,8 +129,9 @@ pub fn render(input: &HalfAngleInput, progress: &dyn Progress) -> Result<(Render
     let medium = Medium::new(input.volume, input.lut);
     let (lo, hi) = input.volume.bounds();
     let pixels = (camera.width * camera.height) as usize;
-    let mut eyes = vec![
-        Eye {
+    let mut eyes: Vec<Eye> = (0..pixels as u32)
+        .map(|p| Eye {
+            ray: camera.ray(p % camera.width, p / camera.width),
             scattered: Vec3::ZERO,
             this_sun: Vec3::ZERO,
             emitted: Vec3::ZERO,
@@ -145,9 +140,8 @@ pub fn render(input: &HalfAngleInput, progress: &dyn Progress) -> Result<(Render
             depth: BACKGROUND_DEPTH,
             lit_at_depth: 0.0,
             irradiance_at_depth: 0.0,
-        };
-        pixels
-    ];
+        })
+        .collect();
     let slicings: Vec<Slicing> = input
         .lighting
         .lights
@@ -166,10 +160,10 @@ pub fn render(input: &HalfAngleInput, progress: &dyn Progress) -> Result<(Render
         if !slicing.front_to_back {
             // The eye's transmittance through the whole ray, for finding the depth on the way
             // back to front.
-            eyes.par_iter_mut().enumerate().for_each(|(p, eye)| {
+            eyes.par_iter_mut().for_each(|eye| {
                 eye.transmittance = 1.0;
                 eye.total = (0..slicing.slabs).fold(1.0, |t, k| {
-                    match view_sample(camera, p, slicing.h, slicing.middle(k, d), d, (lo, hi)) {
+                    match view_sample(&eye.ray, slicing.h, slicing.middle(k, d), d, (lo, hi)) {
                         Some(s) => t * (-medium.optical(s.x).sigma_t * s.dt).exp(),
                         None => t,
                     }
@@ -183,8 +177,8 @@ pub fn render(input: &HalfAngleInput, progress: &dyn Progress) -> Result<(Render
         for k in 0..slicing.slabs {
             let c = slicing.middle(k, d);
             let buffer = &light;
-            eyes.par_iter_mut().enumerate().for_each(|(p, eye)| {
-                let Some(sample) = view_sample(camera, p, slicing.h, c, d, (lo, hi)) else {
+            eyes.par_iter_mut().for_each(|eye| {
+                let Some(sample) = view_sample(&eye.ray, slicing.h, c, d, (lo, hi)) else {
                     return;
                 };
                 let optical = medium.optical(sample.x);

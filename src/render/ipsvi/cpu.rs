@@ -8,7 +8,7 @@ use crate::classify::Optical;
 use crate::error::Result;
 use crate::lights::{incident, Light};
 use crate::progress::Progress;
-use crate::render::occupancy::Occupancy;
+use crate::render::occupancy::{March, Occupancy};
 use crate::render::raycast::cpu::emitted;
 use crate::render::reference::medium::Medium;
 use crate::render::reference::phase::henyey_greenstein;
@@ -186,22 +186,21 @@ impl Tracer<'_> {
         };
         let step = self.step;
         let steps = ((t_far - t_near) / step).ceil() as u32;
-        let index_origin = volume.to_index(ray.origin);
-        let index_dir = ray.dir / volume.spacing();
+        let march = March {
+            index_origin: volume.to_index(ray.origin),
+            index_dir: ray.dir / volume.spacing(),
+            start: t_near,
+            step,
+            steps,
+        };
         let mut held = HeldRays::default();
         let mut k = 0;
         while k < steps {
             let ta = t_near + k as f32 * step;
             let dt = (t_far - ta).min(step);
             let x = ray.origin + (ta + 0.5 * dt) * ray.dir;
-            let cell = self.occupancy.cell_of(volume.to_index(x));
-            if !self.occupancy.occupied(cell) {
-                let t_exit = self.occupancy.exit(cell, index_origin, index_dir);
-                let next = ((t_exit - t_near) / step - 0.5).ceil();
-                if next.is_nan() || next >= steps as f32 {
-                    break;
-                }
-                k = (next as u32).max(k + 1);
+            if let Some(next) = self.occupancy.skip(volume.to_index(x), k, &march) {
+                k = next;
                 continue;
             }
             k += 1;
@@ -355,20 +354,20 @@ impl Tracer<'_> {
         let x = x + start * to_light;
         let n = (length / self.light_step).ceil().max(1.0) as u32;
         let h = length / n as f32;
-        let index_origin = volume.to_index(x);
-        let index_dir = to_light / volume.spacing();
+        let march = March {
+            index_origin: volume.to_index(x),
+            index_dir: to_light / volume.spacing(),
+            start: 0.0,
+            step: h,
+            steps: n,
+        };
         let mut tau = 0.0;
         let mut i = 0;
         while i < n {
             let t = (i as f32 + 0.5) * h;
-            let cell = self.occupancy.cell_of(index_origin + t * index_dir);
-            if !self.occupancy.occupied(cell) {
-                let t_exit = self.occupancy.exit(cell, index_origin, index_dir);
-                let next = (t_exit / h - 0.5).ceil();
-                if next.is_nan() || next >= n as f32 {
-                    break;
-                }
-                i = (next as u32).max(i + 1);
+            let at = march.index_origin + t * march.index_dir;
+            if let Some(next) = self.occupancy.skip(at, i, &march) {
+                i = next;
                 continue;
             }
             tau += self.medium.sigma_t(x + t * to_light);

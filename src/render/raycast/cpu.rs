@@ -6,7 +6,7 @@ use crate::classify::Optical;
 use crate::error::Result;
 use crate::lights::{incident, Light};
 use crate::progress::Progress;
-use crate::render::occupancy::Occupancy;
+use crate::render::occupancy::{March, Occupancy};
 use crate::render::{RenderImage, BACKGROUND_DEPTH};
 use glam::Vec3;
 use rayon::prelude::*;
@@ -64,23 +64,20 @@ pub fn march(
     let mut transmittance = 1.0f32;
     let mut depth = BACKGROUND_DEPTH;
     // The ray in index coordinates, for cell exits.
-    let index_origin = volume.to_index(ray.origin);
-    let index_dir = ray.dir / volume.spacing();
+    let march = March {
+        index_origin: volume.to_index(ray.origin),
+        index_dir: ray.dir / volume.spacing(),
+        start: t_near,
+        step,
+        steps,
+    };
     let mut k = 0;
     while k < steps {
         let ta = t_near + k as f32 * step;
         let dt = (t_far - ta).min(step);
         let p = ray.origin + (ta + 0.5 * dt) * ray.dir;
-        let cell = occupancy.cell_of(volume.to_index(p));
-        if !occupancy.occupied(cell) {
-            // Resume at the first step whose midpoint lies at or beyond the cell's exit.
-            let t_exit = occupancy.exit(cell, index_origin, index_dir);
-            let next = ((t_exit - t_near) / step - 0.5).ceil();
-            // An unbounded (or NaN) exit leaves nothing to march.
-            if next.is_nan() || next >= steps as f32 {
-                break;
-            }
-            k = (next as u32).max(k + 1);
+        if let Some(next) = occupancy.skip(volume.to_index(p), k, &march) {
+            k = next;
             continue;
         }
         k += 1;
