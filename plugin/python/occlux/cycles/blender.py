@@ -103,8 +103,20 @@ def padded_value_grid(vdb_path: str | os.PathLike[str], spec: SceneSpec) -> Path
     return out
 
 
+def _free_persistent_data(scene) -> None:
+    """Frees the render engine that ``use_persistent_data`` keeps alive after a render
+    (switching it off frees it). That engine holds a depsgraph of the scene's data: removing
+    the data while it lives leaves it pointing at freed blocks, and Blender crashes in the next
+    node-tree or depsgraph update (seen in CI: a segfault in the next build's material)."""
+    if scene.render.use_persistent_data:
+        scene.render.use_persistent_data = False
+
+
 def _remove_previous(bpy) -> None:
     """Removes the data a previous build made (and nothing else of the session's)."""
+    for scene in bpy.data.scenes:
+        if scene.name.startswith(PREFIX):
+            _free_persistent_data(scene)
     for collection in (
         bpy.data.scenes,
         bpy.data.objects,
@@ -179,7 +191,6 @@ def _cycles_settings(scene, bounces: int) -> None:
     render = scene.render
     render.engine = "CYCLES"
     render.film_transparent = False
-    render.use_persistent_data = True  # renders at other seeds reuse the volume's octree
     render.filter_size = 0.01
     render.resolution_percentage = 100
     render.pixel_aspect_x = render.pixel_aspect_y = 1.0
@@ -363,21 +374,26 @@ def render_scene(
     assert OCCLUX_SEED not in seed_list
     total = total_sq = 0.0
     started = time.perf_counter()
-    with tempfile.TemporaryDirectory(prefix="occlux-cycles-") as tmp:
-        for k, seed in enumerate(seed_list):
-            c.seed = seed
-            c.sample_offset = k * per_seed
-            scene.render.filepath = str(Path(tmp) / f"seed{seed}.exr")
-            with _quiet_stdout():
-                result = bpy.ops.render.render(write_still=True, scene=scene.name)
-            if result != {"FINISHED"}:
-                raise HarnessError(f"Cycles render at seed {seed} ended with {result}")
-            channels, _ = read_channels(scene.render.filepath)
-            rgb = np.stack([channels[ch] for ch in "RGB"], axis=-1).astype(np.float64)
-            total = total + rgb
-            total_sq = total_sq + rgb * rgb
-            if progress is not None:
-                progress(k + 1, seeds)
+    # Renders at other seeds reuse the first one's volume octree; freed after the last one.
+    scene.render.use_persistent_data = True
+    try:
+        with tempfile.TemporaryDirectory(prefix="occlux-cycles-") as tmp:
+            for k, seed in enumerate(seed_list):
+                c.seed = seed
+                c.sample_offset = k * per_seed
+                scene.render.filepath = str(Path(tmp) / f"seed{seed}.exr")
+                with _quiet_stdout():
+                    result = bpy.ops.render.render(write_still=True, scene=scene.name)
+                if result != {"FINISHED"}:
+                    raise HarnessError(f"Cycles render at seed {seed} ended with {result}")
+                channels, _ = read_channels(scene.render.filepath)
+                rgb = np.stack([channels[ch] for ch in "RGB"], axis=-1).astype(np.float64)
+                total = total + rgb
+                total_sq = total_sq + rgb * rgb
+                if progress is not None:
+                    progress(k + 1, seeds)
+    finally:
+        _free_persistent_data(scene)
     seconds = time.perf_counter() - started
     mean = total / seeds
     variance = np.maximum(total_sq - seeds * mean * mean, 0.0) / (seeds - 1)
