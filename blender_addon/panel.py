@@ -50,6 +50,7 @@ class VIEW3D_PT_occlux(bpy.types.Panel):
         column.prop(settings, "ipsvi_line_width")
         column.prop(settings, "ipsvi_cache_size")
         column.prop(settings, "ipsvi_g")
+        column.prop(settings, "ipsvi_scattering")
         layout.operator("occlux.render_ipsvi", icon="LIGHT_SUN")
         layout.prop(settings, "last_exr")
         composite = layout.operator("occlux.composite", icon="NODE_COMPOSITING")

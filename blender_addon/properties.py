@@ -227,6 +227,12 @@ class OccluxSettings(bpy.types.PropertyGroup):
         default=0,
     )
     ipsvi_g: _registry_float("Anisotropy", IPSVI["g"], precision=2)
+    ipsvi_scattering: EnumProperty(
+        name="Scattering",
+        description=IPSVI["scattering"]["doc"],
+        items=_items(IPSVI["scattering"]),
+        default=IPSVI["scattering"]["default"],
+    )
     last_exr: StringProperty(
         name="Occlux EXR",
         description="The EXR the last Occlux render wrote (what Composite reads)",

@@ -3,6 +3,11 @@
 // src/render/ipsvi/cpu.rs step for step (see src/render/ipsvi/mod.rs for the model): it reads
 // the cache as the previous lines left it and hands its writes to the merge
 // (ipsvi_cache.wgsl, ipsvi_merge.wgsl).
+//
+// With multiple scattering, `chord_depths` (one invocation per cache texel, cpu::chord_depths)
+// first writes each cache ray's optical depth through the whole box to `chords`, once per
+// light before its sweep; the trace interpolates it at a sample's four cache rays to find
+// where the light's slab ends (diffusion::fluence's `ahead`).
 
 //#include "common.wgsl"
 //#include "view.wgsl"
@@ -17,8 +22,13 @@ const BACKGROUND_DEPTH: f32 = 1.0e10;
 const FAR: f32 = 3.0e38;
 // f32::MIN_POSITIVE.
 const MIN_POSITIVE: f32 = 1.17549435e-38;
-// Invocations per workgroup of `main` (ipsvi::gpu's TRACE_WORKGROUP).
+// std::f32::consts::FRAC_1_PI.
+const FRAC_1_PI: f32 = 0.318309886183791;
+// Invocations per workgroup of `main` and `chord_depths` (ipsvi::gpu's TRACE_WORKGROUP).
 const WORKGROUP: u32 = 64u;
+// diffusion::MAX_DEPTH and diffusion::MAX_ALBEDO.
+const MAX_DEPTH: f32 = 1e4;
+const MAX_ALBEDO: f32 = 0.999;
 
 // CacheMap.kind (ipsvi::gpu's MAP_*).
 const MAP_PARALLEL: u32 = 0u;
@@ -70,6 +80,8 @@ struct Params {
     piecewise: u32,
     // 1 in the first light's pass, which also records emission, transmittance and depth.
     first_pass: u32,
+    // 1: add the diffuse light of multiple scattering (diffusion::fluence).
+    multiple: u32,
 };
 
 // What one view ray gathers under one light (cpu::PixelOut).
@@ -114,6 +126,9 @@ struct Held {
 @group(0) @binding(7) var<storage, read_write> view_out: array<vec4<f32>>;
 // Per pixel: the depth (first pass) and the irradiance there (summed over the lights).
 @group(0) @binding(8) var<storage, read_write> depth_out: array<vec2<f32>>;
+// Per cache texel, with multiple scattering: the optical depth of its light ray through the
+// whole box (written by `chord_depths`, read by the trace; one element when unused).
+@group(0) @binding(9) var<storage, read_write> chords: array<f32>;
 
 // Whether the occupancy cell may hold matter (Occupancy::occupied).
 fn occupied(cell: vec3<u32>) -> bool {
@@ -236,24 +251,29 @@ fn towards_light(p: vec3<f32>) -> vec4<f32> {
 }
 
 // Tracer::optical_depth: from x towards the light over at most `limit`, within the box and
-// short of the light, by the midpoint rule in equal steps of at most light_step, skipping
-// the steps in empty occupancy cells.
+// short of the light.
 fn optical_depth(x0: vec3<f32>, limit: f32) -> f32 {
     let towards = towards_light(x0);
-    let to_light = towards.xyz;
-    let span = box_span(params.view, CameraRay(x0, to_light));
+    return optical_depth_along(x0, towards.xyz, min(limit, towards.w));
+}
+
+// Tracer::optical_depth_along: from x0 along the unit `dir` over at most `limit` (FAR for the
+// CPU's infinity) within the box, by the midpoint rule in equal steps of at most light_step,
+// skipping the steps in empty occupancy cells.
+fn optical_depth_along(x0: vec3<f32>, dir: vec3<f32>, limit: f32) -> f32 {
+    let span = box_span(params.view, CameraRay(x0, dir));
     if (!(span.y > span.x)) {
         return 0.0;
     }
-    let along = min(min(limit, span.y), towards.w) - span.x;
+    let along = min(limit, span.y) - span.x;
     if (along <= 0.0) {
         return 0.0;
     }
-    let x = x0 + span.x * to_light;
+    let x = x0 + span.x * dir;
     let n = u32(max(ceil(along / params.light_step), 1.0));
     let h = along / f32(n);
     let index_origin = index_of(params.view, x);
-    let index_dir = to_light / params.view.spacing;
+    let index_dir = dir / params.view.spacing;
     var tau = 0.0;
     var i = 0u;
     loop {
@@ -272,7 +292,7 @@ fn optical_depth(x0: vec3<f32>, limit: f32) -> f32 {
             i = max(u32(next), i + 1u);
             continue;
         }
-        tau = tau + optical_at(x + t * to_light).sigma_t;
+        tau = tau + optical_at(x + t * dir).sigma_t;
         i = i + 1u;
     }
     return tau * h;
@@ -414,6 +434,72 @@ fn henyey_greenstein(g: f32, cos_theta: f32) -> f32 {
     return (1.0 - g * g) / (4.0 * PI * denom * sqrt(denom));
 }
 
+// diffusion::lateral_escape: B^2 of the two directions across the light for a body as wide
+// as the slab (L deep) is.
+fn lateral_escape(l: f32, d: f32) -> f32 {
+    let w = PI / (l + 4.0 * d);
+    return 2.0 * w * w;
+}
+
+// diffusion::spread: exp(-t) t h((1 - mu) t) with h(x) = expm1(x) / x, finite for mu near 1
+// and for large t, in the same branches. WGSL has no expm1: for 1e-4 <= |x| < 1e-2 its series
+// to x^4 is exact in f32 (the next term is x^5 / 120), and beyond exp(x) - 1 loses about
+// 1e-7 / |x| <= 1e-5 of itself to cancellation. Only the branch taken is evaluated, so
+// exp never overflows (x < 50) and no inf meets a 0.
+fn spread(t: f32, mu: f32) -> f32 {
+    let x = (1.0 - mu) * t;
+    if (abs(x) < 1e-4) {
+        return exp(-t) * t * (1.0 + 0.5 * x);
+    }
+    if (abs(x) < 1e-2) {
+        let expm1 = x * (1.0 + x * (0.5 + x * (1.0 / 6.0 + x * (1.0 / 24.0))));
+        return exp(-t) * expm1 / (1.0 - mu);
+    }
+    if (x < 50.0) {
+        return exp(-t) * (exp(x) - 1.0) / (1.0 - mu);
+    }
+    // = (exp(-mu t) - exp(-t)) / (1 - mu), which cannot overflow.
+    return (exp(-mu * t) - exp(-t)) / (1.0 - mu);
+}
+
+// diffusion::fluence of one colour channel: the diffuse fluence per unit irradiance at
+// optical depth tau along a light ray, in a slab tau + ahead deep (with sideways escape), for
+// albedo a and asymmetry g; the same clamps (a to MAX_ALBEDO, tau and L to MAX_DEPTH: no
+// infinite depth, no inf * 0) and the same cancellation-free form.
+fn fluence_channel(tau_in: f32, ahead: f32, a_in: f32, g: f32) -> f32 {
+    if (a_in <= 0.0) {
+        return 0.0;
+    }
+    let a = min(a_in, MAX_ALBEDO);
+    let tau = min(tau_in, MAX_DEPTH);
+    let l = min(tau + max(ahead, 0.0), MAX_DEPTH);
+    let d = 1.0 / (3.0 * (1.0 - a * g));
+    let mu = sqrt(3.0 * (1.0 - a) * (1.0 - a * g) + lateral_escape(l, d));
+    let f = a * (1.0 + 3.0 * d * g) / (d * (mu + 1.0));
+    let moment = 6.0 * d * g * a;
+    let p = 1.0 + 2.0 * d * mu;
+    let m = 1.0 - 2.0 * d * mu;
+    let far = exp(-mu * l);
+    let beam_out = exp(-l);
+    let spread_l = spread(l, mu);
+    let det = p * p - m * m * far * far;
+    let near_face = (-p * moment - m * far * moment * beam_out
+        + f * (2.0 * d * p + m * far * (m * spread_l + 2.0 * d * beam_out))) / det;
+    let far_face = (p * moment * beam_out + m * far * moment
+        - f * (4.0 * d * beam_out + m * (1.0 + 2.0 * d) * spread_l)) / det;
+    let phi = f * spread(tau, mu) + near_face * exp(-mu * tau) + far_face * exp(-mu * (l - tau));
+    return max(phi, 0.0);
+}
+
+// diffusion::fluence per colour channel of the albedo a.
+fn fluence(tau: f32, ahead: f32, a: vec3<f32>, g: f32) -> vec3<f32> {
+    return vec3<f32>(
+        fluence_channel(tau, ahead, a.x, g),
+        fluence_channel(tau, ahead, a.y, g),
+        fluence_channel(tau, ahead, a.z, g),
+    );
+}
+
 // Tracer::trace: marches the view ray through pixel `xy` front to back.
 fn trace(xy: vec2<u32>) -> PixelOut {
     var out = PixelOut(vec3<f32>(0.0), vec3<f32>(0.0), 1.0, BACKGROUND_DEPTH, 0.0, 0.0);
@@ -463,8 +549,20 @@ fn trace(xy: vec2<u32>) -> PixelOut {
         var to_light: vec3<f32>;
         let e = incident(x, &to_light);
         // Light travels along -to_light and leaves along -dir: cos = to_light . dir.
-        let scattered = o.albedo * henyey_greenstein(params.g, dot(to_light, ray.dir)) * e;
-        out.scattered = out.scattered + out.transmittance * alpha * (scattered * light_t);
+        var per_irradiance = vec3<f32>(henyey_greenstein(params.g, dot(to_light, ray.dir)) * light_t);
+        if (params.multiple == 1u) {
+            // As the CPU twin: no infinite depth where the light is gone.
+            let tau = -log(max(light_t, 1e-30));
+            // The slab's far face: where the light ray leaves the box, from the chords of the
+            // cache rays around the sample (summed in the CPU's order).
+            var chord = 0.0;
+            for (var i = 0u; i < 4u; i = i + 1u) {
+                chord = chord + place.weights[i] * chords[place.corners[i]];
+            }
+            let phi = fluence(tau, chord - tau, o.albedo, params.g);
+            per_irradiance = per_irradiance + phi * FRAC_1_PI * 0.25;
+        }
+        out.scattered = out.scattered + out.transmittance * alpha * (o.albedo * per_irradiance * e);
         out.emitted = out.emitted + out.transmittance * emitted(o, alpha, dt);
         let next = out.transmittance * (1.0 - alpha);
         if (out.transmittance > 0.5 && next <= 0.5) {
@@ -499,4 +597,36 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
         depth = out.depth;
     }
     depth_out[pixel] = vec2<f32>(depth, at_depth.y + out.irradiance_at_depth);
+}
+
+// cpu::chord_depths: the optical depth of texel's cache ray through the whole box, from the
+// light (a lamp's maps) or from behind every point of the box (a sun's rays, lines through
+// the plane s = 0 at the world's origin). One invocation per texel, in a 2D grid of
+// workgroups (rows of groups.x * WORKGROUP texels) when there are more than one dimension
+// holds.
+@compute @workgroup_size(64, 1, 1)
+fn chord_depths(
+    @builtin(global_invocation_id) id: vec3<u32>,
+    @builtin(num_workgroups) groups: vec3<u32>,
+) {
+    let map = params.map;
+    let texel = id.x + id.y * groups.x * WORKGROUP;
+    if (texel >= map.size.x * map.size.y) {
+        return;
+    }
+    var start = 0.0;
+    if (map.kind == MAP_PARALLEL) {
+        let lo = params.view.box_lo;
+        let hi = params.view.box_hi;
+        start = -(max(sqrt(dot(lo, lo)), sqrt(dot(hi, hi))) + 1.0);
+    }
+    let origin = ray_point(texel, start);
+    let d = ray_point(texel, start + 1.0) - origin;
+    // glam's normalize_or_zero; a zero direction (never, for a valid map) crosses nothing.
+    let len2 = dot(d, d);
+    var chord = 0.0;
+    if (len2 > 0.0) {
+        chord = optical_depth_along(origin, unit(d), FAR);
+    }
+    chords[texel] = chord;
 }

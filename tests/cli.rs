@@ -729,21 +729,46 @@ fn ipsvi_accuracy_measures_against_the_reference_and_names_bad_lamps() {
             "64",
             "--piecewise",
             "on,off",
+            "--scattering",
+            "single,multiple",
             "--repeats",
             "1",
         ],
         &json,
     );
     let rows = report["rows"].as_array().unwrap();
-    // The demo's sun (its ambient light left out) and the lamp, piecewise on and off.
-    assert_eq!(rows.len(), 4, "{rows:?}");
+    // The demo's sun (its ambient light left out) and the lamp; per light piecewise on and off
+    // against the `single` reference, the same with multiple scattering against `multiple`,
+    // and single scattering against `multiple` beside them.
+    assert_eq!(rows.len(), 10, "{rows:?}");
+    for row in rows {
+        let method = row["method"].as_str().unwrap();
+        let reference = row["reference"].as_str().unwrap();
+        let against_multiple = reference.starts_with("occlux-multiple-");
+        assert!(
+            against_multiple || reference.starts_with("occlux-single-"),
+            "{row}"
+        );
+        assert!(!method.contains("multiple") || against_multiple, "{row}");
+    }
+    let baselines = rows
+        .iter()
+        .filter(|r| {
+            r["reference"]
+                .as_str()
+                .unwrap()
+                .starts_with("occlux-multiple-")
+                && !r["method"].as_str().unwrap().contains("multiple")
+        })
+        .count();
+    assert_eq!(baselines, 2, "{rows:?}");
     for row in rows {
         let error = row["rel_rmse"].as_f64().unwrap();
         assert!(error.is_finite() && error > 0.0, "{row}");
         assert!(row["ms"].as_f64().unwrap() > 0.0 && row["dvr_ms"].as_f64().unwrap() > 0.0);
     }
     let lights: Vec<&str> = rows.iter().map(|r| r["light"].as_str().unwrap()).collect();
-    assert_eq!(lights, ["scene", "scene", "lamp", "lamp"]);
+    assert_eq!(lights, [["scene"; 5], ["lamp"; 5]].concat());
     let run = occlux(&["ipsvi-accuracy", "--scenes", demo, "--lamp", "1,2,3"]);
     let stderr = String::from_utf8_lossy(&run.stderr);
     assert!(

@@ -41,6 +41,7 @@ def ipsvi_section(settings) -> dict[str, Any]:
         "method": "ipsvi",
         "line_width": int(settings.ipsvi_line_width),
         "g": float(settings.ipsvi_g),
+        "scattering": settings.ipsvi_scattering,
     }
     if settings.ipsvi_cache_size > 0:  # else absent: matched to the image and the voxels
         section["cache_size"] = int(settings.ipsvi_cache_size)

@@ -16,7 +16,7 @@ use crate::progress::NoProgress;
 use crate::registry::RenderMethod;
 use crate::render::half_angle::{self, HalfAngleInput, HalfAngleParams};
 use crate::render::ipsvi::cache::{CacheMap, Resolution};
-use crate::render::ipsvi::{self, IpsviInput, IpsviParams};
+use crate::render::ipsvi::{self, IpsviInput, IpsviParams, Scattering};
 use crate::render::raycast::{self, RaycastInput, RaycastParams};
 use crate::render::reference::Estimator;
 use crate::render::RenderImage;
@@ -36,8 +36,8 @@ pub struct IpsviAccuracyArgs {
     )]
     pub scenes: Vec<PathBuf>,
     /// A Cycles render of the first scene under its own lights (e.g.
-    /// ../shared/bench/engine-cycles/sun_ref8192.exr); it replaces the Monte Carlo reference
-    /// for that scene and sets its image size.
+    /// ../shared/bench/engine-cycles/sun_ref8192.exr, or multi_ref8192.exr with --scattering
+    /// multiple); it replaces the Monte Carlo reference for that scene and sets its image size.
     #[arg(long)]
     pub cycles: Option<PathBuf>,
     /// Also measure every scene under a point light X,Y,Z of intensity I (its lights replaced):
@@ -56,6 +56,15 @@ pub struct IpsviAccuracyArgs {
     /// Early ray termination (threshold 1e-3) on, off (0) or both.
     #[arg(long, value_delimiter = ',', default_value = "on")]
     pub ert: Vec<Switch>,
+    /// Scattering to render and measure: single (against the `single` reference), multiple
+    /// (against `multiple` with --bounces, beside single scattering against it), or both
+    /// ("single,multiple").
+    #[arg(long, value_delimiter = ',', default_value = "single")]
+    pub scattering: Vec<Scattering>,
+    /// Scatterings after the first in the `multiple` reference (Cycles' volume bounces; the
+    /// engine's Cycles reference uses 8).
+    #[arg(long, default_value_t = 8)]
+    pub bounces: u32,
     /// Square image side for the scenes measured against the Monte Carlo reference.
     #[arg(long, default_value_t = 128)]
     pub size: u32,
@@ -171,7 +180,11 @@ impl Case {
         let on = |b: bool| if b { "on" } else { "off" };
         match self {
             Case::Ipsvi(p) => format!(
-                "ipsvi w {} cache {} piecewise {} ert {}",
+                "ipsvi{} w {} cache {} piecewise {} ert {}",
+                match p.scattering {
+                    Scattering::Single => "",
+                    Scattering::Multiple => " multiple",
+                },
                 p.line_width,
                 p.cache_size.unwrap_or(0),
                 on(p.piecewise),
@@ -249,25 +262,6 @@ pub fn run(args: &IpsviAccuracyArgs, quiet: bool) -> Result<()> {
                 against_cycles.map_or((args.size, args.size), |c| (c.width, c.height));
             scene.camera.width = width;
             scene.camera.height = height;
-            let (reference, truth, stderr) = match against_cycles {
-                Some(exr) => (
-                    "cycles".to_owned(),
-                    exr.rgb()
-                        .ok_or_else(|| Error::param("--cycles", "no layer with R, G and B"))?,
-                    None,
-                ),
-                None => {
-                    let mc = super::dos_accuracy::reference_image(
-                        &scene,
-                        &volume,
-                        &lut,
-                        Estimator::Single,
-                        args.spp,
-                    )?;
-                    let mean = mc.mean.iter().map(|m| [m[0], m[1], m[2]]).collect();
-                    (format!("occlux-single-{}", args.spp), mean, Some(mc.stderr))
-                }
-            };
             let background = scene.lighting.background.element_sum() / 3.0;
             let dvr_params = RaycastParams::default();
             let dvr = RaycastInput {
@@ -282,68 +276,104 @@ pub fn run(args: &IpsviAccuracyArgs, quiet: bool) -> Result<()> {
                 raycast::render(&compute, &dvr, &NoProgress)
             })?
             .median_ms;
-            let mut cases: Vec<Case> = vec![];
-            for &line_width in &args.line_widths {
-                for &cache_size in &args.cache_sizes {
-                    for &piecewise in &args.piecewise {
-                        for &ert in &args.ert {
-                            cases.push(Case::Ipsvi(IpsviParams {
-                                line_width,
-                                cache_size: (cache_size > 0).then_some(cache_size),
-                                piecewise: piecewise == Switch::On,
-                                ert_threshold: if ert == Switch::On { 1e-3 } else { 0.0 },
-                                ..IpsviParams::default()
-                            }));
+            for &scattering in &args.scattering {
+                let estimator = match scattering {
+                    Scattering::Single => Estimator::Single,
+                    Scattering::Multiple => Estimator::Multiple {
+                        bounces: args.bounces,
+                    },
+                };
+                let (reference, truth, stderr) = match against_cycles {
+                    Some(exr) => (
+                        "cycles".to_owned(),
+                        exr.rgb()
+                            .ok_or_else(|| Error::param("--cycles", "no layer with R, G and B"))?,
+                        None,
+                    ),
+                    None => {
+                        let mc = super::dos_accuracy::reference_image(
+                            &scene, &volume, &lut, estimator, args.spp,
+                        )?;
+                        let mean = mc.mean.iter().map(|m| [m[0], m[1], m[2]]).collect();
+                        (
+                            format!("occlux-{}-{}", estimator.name(), args.spp),
+                            mean,
+                            Some(mc.stderr),
+                        )
+                    }
+                };
+                let mut cases: Vec<Case> = vec![];
+                for &line_width in &args.line_widths {
+                    for &cache_size in &args.cache_sizes {
+                        for &piecewise in &args.piecewise {
+                            for &ert in &args.ert {
+                                cases.push(Case::Ipsvi(IpsviParams {
+                                    line_width,
+                                    cache_size: (cache_size > 0).then_some(cache_size),
+                                    piecewise: piecewise == Switch::On,
+                                    ert_threshold: if ert == Switch::On { 1e-3 } else { 0.0 },
+                                    scattering,
+                                    ..IpsviParams::default()
+                                }));
+                            }
                         }
                     }
                 }
-            }
-            // Half-angle slicing renders suns only: the lamp's rows go without it.
-            if args.half_angle && HalfAngleParams::SPEC.check_lights(&scene.lighting).is_ok() {
-                cases.push(Case::HalfAngle(HalfAngleParams::default()));
-            }
-            for case in &cases {
-                let render = || case.render(&compute, &volume, &lut, &scene);
-                let (timing, image) = timed_keeping(args.repeats, render)?;
-                let ms = timing.median_ms;
-                let (pixels, rel_rmse, rel_bias, reference_noise) =
-                    design_error(&image.rgba, &truth, stderr.as_deref(), background)?;
-                let (cache, cache_bytes) = case.cache(&volume, &scene);
-                let row = IpsviRow {
-                    scene: path.display().to_string(),
-                    light: light_name,
-                    reference: reference.clone(),
-                    method: case.describe(),
-                    cache,
-                    cache_bytes,
-                    pixels,
-                    rel_rmse,
-                    rel_bias,
-                    reference_noise,
-                    ms,
-                    dvr_ms,
-                };
-                crate::progress::say(
-                    quiet,
-                    format_args!(
-                        "{:<26} {:<5} vs {:<18} {:<44} cache {}x{} ({:.1} MiB) rel RMSE {:.4} \
+                // What the multiple-scattering term buys: single scattering against the same
+                // reference.
+                if scattering == Scattering::Multiple {
+                    cases.push(Case::Ipsvi(IpsviParams::default()));
+                }
+                // Half-angle slicing renders suns only: the lamp's rows go without it.
+                if args.half_angle
+                    && scattering == Scattering::Single
+                    && HalfAngleParams::SPEC.check_lights(&scene.lighting).is_ok()
+                {
+                    cases.push(Case::HalfAngle(HalfAngleParams::default()));
+                }
+                for case in &cases {
+                    let render = || case.render(&compute, &volume, &lut, &scene);
+                    let (timing, image) = timed_keeping(args.repeats, render)?;
+                    let ms = timing.median_ms;
+                    let (pixels, rel_rmse, rel_bias, reference_noise) =
+                        design_error(&image.rgba, &truth, stderr.as_deref(), background)?;
+                    let (cache, cache_bytes) = case.cache(&volume, &scene);
+                    let row = IpsviRow {
+                        scene: path.display().to_string(),
+                        light: light_name,
+                        reference: reference.clone(),
+                        method: case.describe(),
+                        cache,
+                        cache_bytes,
+                        pixels,
+                        rel_rmse,
+                        rel_bias,
+                        reference_noise,
+                        ms,
+                        dvr_ms,
+                    };
+                    crate::progress::say(
+                        quiet,
+                        format_args!(
+                            "{:<26} {:<5} vs {:<18} {:<44} cache {}x{} ({:.1} MiB) rel RMSE {:.4} \
                          bias {:+.4} (noise {:.4}) {:.0} ms, DVR {:.0} ms ({:.2}x DVR's speed)",
-                        row.scene,
-                        row.light,
-                        row.reference,
-                        row.method,
-                        row.cache[0],
-                        row.cache[1],
-                        row.cache_bytes as f64 / (1 << 20) as f64,
-                        row.rel_rmse,
-                        row.rel_bias,
-                        row.reference_noise,
-                        row.ms,
-                        row.dvr_ms,
-                        row.dvr_ms / row.ms
-                    ),
-                );
-                rows.push(row);
+                            row.scene,
+                            row.light,
+                            row.reference,
+                            row.method,
+                            row.cache[0],
+                            row.cache[1],
+                            row.cache_bytes as f64 / (1 << 20) as f64,
+                            row.rel_rmse,
+                            row.rel_bias,
+                            row.reference_noise,
+                            row.ms,
+                            row.dvr_ms,
+                            row.dvr_ms / row.ms
+                        ),
+                    );
+                    rows.push(row);
+                }
             }
         }
     }

@@ -583,6 +583,7 @@ lamp.data.energy, lamp.data.color = 400.0, (1.0, 0.5, 0.25)
 lamp.location = (1.5, -2.5, 2.0)
 scene.collection.objects.link(lamp)
 s.ipsvi_line_width, s.ipsvi_cache_size, s.ipsvi_g = 2, 96, 0.3
+s.ipsvi_scattering = "multiple"
 bpy.context.view_layer.update()
 result["sun_z"] = list(sun.matrix_world.col[2].xyz.normalized())
 result["op"] = list(bpy.ops.occlux.render_ipsvi())
@@ -600,6 +601,7 @@ result["composite"] = list(bpy.ops.occlux.composite(filepath=s.last_exr, layer="
     method = result["method"]  # the panel's parameters reached the render
     assert method["method"] == "ipsvi" and method["line_width"] == 2, method
     assert method["cache_size"] == 96 and method["g"] == pytest.approx(0.3), method
+    assert method["scattering"] == "multiple", method
     lights = result["lighting"]["lights"]  # the lamps, not the world
     assert [light["type"] for light in lights] == ["directional", "point"], lights
     assert lights[0]["to_light"] == pytest.approx(result["sun_z"], abs=1e-6)
@@ -736,8 +738,9 @@ def test_the_modal_path_polls_the_thread_and_esc_cancels(extension: Path, tmp_pa
 def test_property_limits_defaults_and_choices_come_from_the_registry(
     extension: Path, tmp_path: Path
 ) -> None:
-    """The panel's DOS and AO settings take their limits, defaults and choices from the core's
-    method registry (`occlux.methods()`), and what they clamp to is what the core accepts."""
+    """The panel's DOS, AO and IPSVI settings take their limits, defaults and choices from the
+    core's method registry (`occlux.methods()`), and what they clamp to is what the core
+    accepts."""
     result, _ = blender(
         extension,
         tmp_path / "user",
@@ -753,7 +756,9 @@ def test_property_limits_defaults_and_choices_come_from_the_registry(
             return {"items": [[i.identifier, i.description] for i in p.enum_items],
                     "default": p.default, "description": p.description}
         result["numbers"] = {n: number(n) for n in ("dos_theta_deg", "dos_grid", "ao_radius")}
-        result["choices"] = {n: choice(n) for n in ("dos_distance", "ao_method", "preset")}
+        result["choices"] = {
+            n: choice(n) for n in ("dos_distance", "ao_method", "ipsvi_scattering", "preset")
+        }
         s.dos_theta_deg, s.dos_grid, s.ao_radius = 95.0, 99, 100000
         result["clamped"] = [s.dos_theta_deg, s.dos_grid, s.ao_radius]
         # The clamped values are ones the core takes.
@@ -763,7 +768,7 @@ def test_property_limits_defaults_and_choices_come_from_the_registry(
         """,
     )
     registry = {m["name"]: {p["key"]: p for p in m["params"]} for m in occlux.methods()}
-    dos, ao = registry["dos"], registry["ao"]
+    dos, ao, ipsvi = registry["dos"], registry["ao"], registry["ipsvi"]
     numbers, choices = result["numbers"], result["choices"]
 
     theta, grid, radius = numbers["dos_theta_deg"], numbers["dos_grid"], numbers["ao_radius"]
@@ -781,7 +786,11 @@ def test_property_limits_defaults_and_choices_come_from_the_registry(
     ]  # fmt: skip
     assert result["clamped"] == [pytest.approx(theta["max"]), grid["max"], radius["max"]]
 
-    for prop, param in (("dos_distance", dos["distance"]), ("ao_method", ao["ao_method"])):
+    for prop, param in (
+        ("dos_distance", dos["distance"]),
+        ("ao_method", ao["ao_method"]),
+        ("ipsvi_scattering", ipsvi["scattering"]),
+    ):
         want = [[o["name"], o["doc"]] for o in param["options"]]
         assert choices[prop]["items"] == want, (prop, choices[prop])
         assert choices[prop]["default"] == param["default"]

@@ -1,8 +1,8 @@
 //! CPU twin of IPSVI: the lines in sweep order, the pixels of a line in parallel (rayon), each
 //! line's cache writes merged by `max` after it (so images do not depend on threads).
 
-use super::cache::{CacheMap, Entry, Place, EMPTY};
-use super::{finish, Gathered, IpsviInput, Sweep};
+use super::cache::{CacheMap, Entry, Map, Place, EMPTY};
+use super::{diffusion, finish, Gathered, IpsviInput, Scattering, Sweep};
 use crate::camera::{intersect_box, Ray};
 use crate::classify::Optical;
 use crate::error::Result;
@@ -49,6 +49,15 @@ pub fn render(input: &IpsviInput, progress: &dyn Progress) -> Result<(RenderImag
             medium: Medium::new(input.volume, input.lut),
             light,
             map,
+            chords: &[],
+        };
+        let chords = match input.params.scattering {
+            Scattering::Single => Vec::new(),
+            Scattering::Multiple => chord_depths(&tracer),
+        };
+        let tracer = Tracer {
+            chords: &chords,
+            ..tracer
         };
         let mut cache = vec![EMPTY; map.texels()];
         let mut line_first = vec![u64::MAX; map.texels()];
@@ -120,6 +129,29 @@ struct Tracer<'a> {
     medium: Medium<'a>,
     light: &'a Light,
     map: &'a CacheMap,
+    /// With multiple scattering: each cache ray's optical depth through the whole box.
+    chords: &'a [f32],
+}
+
+/// The optical depth along each texel's cache ray from the light (or from outside the box,
+/// for a sun) through the whole box: how deep the slab of the multiple-scattering term is.
+fn chord_depths(tracer: &Tracer) -> Vec<f32> {
+    let map = tracer.map;
+    let (lo, hi) = tracer.input.volume.bounds();
+    // A sun's rays are lines through the plane s = 0 at the world's origin: start them
+    // further back than any point of the box.
+    let start = match map.map() {
+        Map::Parallel { .. } => -(lo.length().max(hi.length()) + 1.0),
+        Map::Planar { .. } | Map::Sphere { .. } => 0.0,
+    };
+    (0..map.texels() as u32)
+        .into_par_iter()
+        .map(|texel| {
+            let origin = map.ray_point(texel, start);
+            let dir = (map.ray_point(texel, start + 1.0) - origin).normalize_or_zero();
+            tracer.optical_depth_along(origin, dir, f32::INFINITY)
+        })
+        .collect()
 }
 
 /// What a view ray holds for one cache ray near it: the ray's latest entry there (its later
@@ -215,7 +247,7 @@ impl Tracer<'_> {
             } else {
                 self.light_basic(&place, alpha, cache, &mut held, writes)
             };
-            let scattered = self.scattered(&optical, x, ray.dir) * light_t;
+            let scattered = self.scattered(&optical, x, ray.dir, light_t, &place);
             out.scattered += out.transmittance * alpha * scattered;
             out.emitted += out.transmittance * emitted(&optical, alpha, dt);
             let next = out.transmittance * (1.0 - alpha);
@@ -236,14 +268,50 @@ impl Tracer<'_> {
         out
     }
 
-    /// Radiance scattered towards the eye per unit opacity and unit light transmittance.
+    /// Radiance scattered towards the eye per unit opacity, the light's transmittance being
+    /// `light_t`: the direct light by the phase function and, with multiple scattering, the
+    /// diffuse light isotropically.
     #[inline]
-    fn scattered(&self, optical: &Optical, x: Vec3, dir: Vec3) -> Vec3 {
+    fn scattered(
+        &self,
+        optical: &Optical,
+        x: Vec3,
+        dir: Vec3,
+        light_t: f32,
+        place: &Place,
+    ) -> Vec3 {
         let Some((to_light, irradiance)) = incident(self.light, x) else {
             return Vec3::ZERO;
         };
+        let g = self.input.params.g;
         // Light travels along -to_light and leaves along -dir: cos = to_light . dir.
-        optical.albedo * henyey_greenstein(self.input.params.g, to_light.dot(dir)) * irradiance
+        let mut per_irradiance = Vec3::splat(henyey_greenstein(g, to_light.dot(dir)) * light_t);
+        if self.input.params.scattering == Scattering::Multiple {
+            // As the GPU twin: no infinite depth where the light is gone.
+            let tau = -light_t.max(1e-30).ln();
+            let a = optical.albedo;
+            // The slab's far face: where the light ray leaves the box, from the chords of the
+            // cache rays around the sample.
+            let chord: f32 = place
+                .corners
+                .iter()
+                .zip(&place.weights)
+                .map(|(&texel, &w)| w * self.chords[texel as usize])
+                .sum();
+            let ahead = chord - tau;
+            let phi = if a.x == a.y && a.y == a.z {
+                // A grey albedo (common): one channel's work, the same values.
+                Vec3::splat(diffusion::fluence(tau, ahead, a.x, g))
+            } else {
+                Vec3::new(
+                    diffusion::fluence(tau, ahead, a.x, g),
+                    diffusion::fluence(tau, ahead, a.y, g),
+                    diffusion::fluence(tau, ahead, a.z, g),
+                )
+            };
+            per_irradiance += phi * std::f32::consts::FRAC_1_PI * 0.25;
+        }
+        optical.albedo * per_irradiance * irradiance
     }
 
     /// Piecewise integration: the light's transmittance on each of the four cache rays around
@@ -330,33 +398,34 @@ impl Tracer<'_> {
     }
 
     /// Optical depth from x towards the light over at most `length`, within the box and short
-    /// of the light: the midpoint rule in equal steps of at most `light_step`, skipping the
-    /// steps that fall in empty cells of the occupancy grid (where the extinction is zero).
+    /// of the light.
     #[inline]
     fn optical_depth(&self, x: Vec3, length: f32) -> f32 {
         let (to_light, distance) = self.map.towards_light(x);
+        self.optical_depth_along(x, to_light, length.min(distance))
+    }
+
+    /// Optical depth from x along the unit `dir` over at most `length` within the box: the
+    /// midpoint rule in equal steps of at most `light_step`,
+    /// skipping the steps that fall in empty cells of the occupancy grid (where the extinction
+    /// is zero).
+    #[inline]
+    fn optical_depth_along(&self, x: Vec3, dir: Vec3, length: f32) -> f32 {
         let volume = self.input.volume;
         let (lo, hi) = volume.bounds();
-        let Some((start, exit)) = intersect_box(
-            &Ray {
-                origin: x,
-                dir: to_light,
-            },
-            lo,
-            hi,
-        ) else {
+        let Some((start, exit)) = intersect_box(&Ray { origin: x, dir }, lo, hi) else {
             return 0.0;
         };
-        let length = length.min(exit).min(distance) - start;
+        let length = length.min(exit) - start;
         if length <= 0.0 {
             return 0.0;
         }
-        let x = x + start * to_light;
+        let x = x + start * dir;
         let n = (length / self.light_step).ceil().max(1.0) as u32;
         let h = length / n as f32;
         let march = March {
             index_origin: volume.to_index(x),
-            index_dir: to_light / volume.spacing(),
+            index_dir: dir / volume.spacing(),
             start: 0.0,
             step: h,
             steps: n,
@@ -370,7 +439,7 @@ impl Tracer<'_> {
                 i = next;
                 continue;
             }
-            tau += self.medium.sigma_t(x + t * to_light);
+            tau += self.medium.sigma_t(x + t * dir);
             i += 1;
         }
         tau * h

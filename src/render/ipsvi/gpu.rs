@@ -6,11 +6,13 @@
 //! each piece a one-invocation kernel sizes the merge's indirect dispatches from the counters,
 //! and after the line's last piece the commit updates the cache. Nothing is read back until
 //! the end, and dispatches go to the GPU in batches (one compute pass per submission, wgpu
-//! ordering them with barriers, as DOS's slabs).
+//! ordering them with barriers, as DOS's slabs). With multiple scattering, each light's sweep
+//! begins with the chord pass (the shader's `chord_depths`, one invocation per cache texel),
+//! which writes every cache ray's optical depth through the box as `cpu::chord_depths` does.
 
 use super::cache::{CacheMap, Map};
 use super::sweep::Lines;
-use super::{finish, Gathered, IpsviInput, Sweep};
+use super::{finish, Gathered, IpsviInput, Scattering, Sweep};
 use crate::error::{Error, Result};
 use crate::gpu::lut_shape::LutShapeUniform;
 use crate::gpu::view::ViewUniform;
@@ -25,7 +27,7 @@ use glam::{UVec2, UVec3, Vec2, Vec3};
 
 const TRACE: &str = "ipsvi.wgsl";
 const MERGE: &str = "ipsvi_merge.wgsl";
-/// Invocations per workgroup of the trace (the shader's WORKGROUP).
+/// Invocations per workgroup of the trace and of the chord pass (the shader's WORKGROUP).
 const TRACE_WORKGROUP: u32 = 64;
 /// Bytes of the write list `render` allows: a line's pieces are as long as their rays'
 /// writes fit in it (about 1500 rays of 900 steps), so that even a whole image swept as one
@@ -132,7 +134,8 @@ struct Params {
     ert_threshold: f32,
     piecewise: u32,
     first_pass: u32,
-    _pad: [u32; 3],
+    multiple: u32,
+    _pad: [u32; 2],
 }
 
 impl Params {
@@ -166,7 +169,8 @@ impl Params {
             ert_threshold: input.params.ert_threshold,
             piecewise: u32::from(input.params.piecewise),
             first_pass: u32::from(pass == 0),
-            _pad: [0; 3],
+            multiple: u32::from(input.params.scattering == Scattering::Multiple),
+            _pad: [0; 2],
         }
     }
 }
@@ -192,10 +196,11 @@ pub fn render_with_write_list(
     let sweeps = input.sweeps();
     let volume = GpuVolume::upload(ctx, input.volume, input.lut)?;
     let (cells, occupancy_buffer) = volume.occupancy();
-    let lists = Lists::new(ctx, &sweeps, writes_per_ray(input, step), bytes)?;
+    let multiple = input.params.scattering == Scattering::Multiple;
+    let lists = Lists::new(ctx, &sweeps, writes_per_ray(input, step), bytes, multiple)?;
     let camera = input.camera;
     let outputs = Outputs::new(ctx, (camera.width * camera.height) as usize)?;
-    let kernels = Kernels::new(ctx, &lists)?;
+    let kernels = Kernels::new(ctx, &lists, multiple)?;
     let mut progress = LineProgress {
         progress,
         done: 0,
@@ -211,7 +216,7 @@ pub fn render_with_write_list(
     };
     for (pass, sweep) in sweeps.iter().enumerate() {
         let params = Params::new(input, step, cells, pass, sweep);
-        shared.sweep(&params, &sweep.lines, &mut progress)?;
+        shared.sweep(&params, sweep, &mut progress)?;
     }
     lists.check_overflow(ctx)?;
     let gathered = outputs.read(ctx)?;
@@ -243,16 +248,17 @@ impl LineProgress<'_> {
 }
 
 /// The trace's pipeline and the merge's, with the merge's bind groups (the same buffers for
-/// every light).
+/// every light), and the chord pass's pipeline with multiple scattering (only then built).
 struct Kernels {
     trace: wgpu::ComputePipeline,
+    chords: Option<wgpu::ComputePipeline>,
     arguments: (wgpu::ComputePipeline, wgpu::BindGroup),
     merge: (wgpu::ComputePipeline, wgpu::BindGroup),
     commit: (wgpu::ComputePipeline, wgpu::BindGroup),
 }
 
 impl Kernels {
-    fn new(ctx: &GpuContext, lists: &Lists) -> Result<Self> {
+    fn new(ctx: &GpuContext, lists: &Lists, multiple: bool) -> Result<Self> {
         let kernel = |entry: &str,
                       bindings: &[(u32, &wgpu::Buffer)]|
          -> Result<(wgpu::ComputePipeline, wgpu::BindGroup)> {
@@ -267,6 +273,9 @@ impl Kernels {
         let l = lists;
         Ok(Self {
             trace: shader::compute_pipeline(ctx, TRACE, "main")?,
+            chords: multiple
+                .then(|| shader::compute_pipeline(ctx, TRACE, "chord_depths"))
+                .transpose()?,
             arguments: kernel(
                 "arguments",
                 &[
@@ -296,9 +305,12 @@ impl Kernels {
 
 /// The cache and the merge's lists (shaders/ipsvi_cache.wgsl), shared by every light's sweep:
 /// sized for the largest cache, and the write list for the longest line or as much of it as
-/// `bytes` allows.
+/// `bytes` allows; also the chords of multiple scattering.
 struct Lists {
     cache: wgpu::Buffer,
+    /// Per texel, with multiple scattering, its cache ray's optical depth through the box (the
+    /// shader's `chords`); one element otherwise (the trace binds it either way).
+    chords: wgpu::Buffer,
     writes: wgpu::Buffer,
     counters: wgpu::Buffer,
     line_first: wgpu::Buffer,
@@ -311,7 +323,13 @@ struct Lists {
 }
 
 impl Lists {
-    fn new(ctx: &GpuContext, sweeps: &[Sweep], per_ray: u64, bytes: u64) -> Result<Self> {
+    fn new(
+        ctx: &GpuContext,
+        sweeps: &[Sweep],
+        per_ray: u64,
+        bytes: u64,
+        multiple: bool,
+    ) -> Result<Self> {
         let texels = sweeps.iter().map(|s| s.map.texels()).max().unwrap_or(1);
         let longest = sweeps
             .iter()
@@ -344,6 +362,11 @@ impl Lists {
         })?;
         Ok(Self {
             cache: buffer::output_buffer::<[u32; 2]>(ctx, "ipsvi cache", texels)?,
+            chords: buffer::output_buffer::<f32>(
+                ctx,
+                "ipsvi chords",
+                if multiple { texels } else { 1 },
+            )?,
             writes: buffer::output_buffer::<[u32; 3]>(ctx, "ipsvi writes", capacity)?,
             counters: buffer::output_buffer::<u32>(ctx, "ipsvi counters", 3)?,
             line_first: buffer::storage_buffer(
@@ -461,10 +484,18 @@ struct Shared<'a> {
 }
 
 impl Shared<'_> {
-    /// One light's pass: its lines in order, each traced against the cache and merged.
-    fn sweep(&self, params: &Params, lines: &Lines, progress: &mut LineProgress) -> Result<()> {
+    /// One light's pass: with multiple scattering its chords first, then its lines in order,
+    /// each traced against the cache and merged.
+    fn sweep(&self, params: &Params, sweep: &Sweep, progress: &mut LineProgress) -> Result<()> {
         let ctx = self.ctx;
+        let lines = &sweep.lines;
         let uniform = buffer::uniform_buffer(ctx, "ipsvi params", params)?;
+        let chords = self
+            .kernels
+            .chords
+            .as_ref()
+            .map(|pipeline| self.chord_pass(pipeline, &uniform, sweep.map.texels()))
+            .transpose()?;
         let align = ctx.limits.min_storage_buffer_offset_alignment as usize;
         let (order, pieces) = pieces(lines, self.lists.piece_pixels, align);
         let order = buffer::storage_buffer(ctx, "ipsvi order", &order)?;
@@ -479,8 +510,14 @@ impl Shared<'_> {
             ctx.checked("ipsvi dispatches", || {
                 let mut encoder = ctx.device.create_command_encoder(&Default::default());
                 if batch_index == 0 {
-                    // A new light starts from an empty cache.
+                    // A new light starts from an empty cache, and its chords before any trace.
                     encoder.clear_buffer(&self.lists.cache, 0, None);
+                    if let Some((pipeline, group, workgroups)) = &chords {
+                        let mut pass = encoder.begin_compute_pass(&Default::default());
+                        pass.set_pipeline(pipeline);
+                        pass.set_bind_group(0, group, &[]);
+                        pass.dispatch_workgroups(workgroups[0], workgroups[1], 1);
+                    }
                 }
                 self.encode(&mut encoder, batch, &groups);
                 ctx.queue.submit([encoder.finish()]);
@@ -490,6 +527,34 @@ impl Shared<'_> {
             }
         }
         Ok(())
+    }
+
+    /// The chord pass of one light: its pipeline, its bind group and its workgroups, one
+    /// invocation per texel in rows of at most the adapter's workgroups per dimension (the
+    /// shader's `chord_depths`).
+    fn chord_pass<'p>(
+        &self,
+        pipeline: &'p wgpu::ComputePipeline,
+        uniform: &wgpu::Buffer,
+        texels: usize,
+    ) -> Result<(&'p wgpu::ComputePipeline, wgpu::BindGroup, [u32; 2])> {
+        let texture = self.volume.texture();
+        let group = shader::bind_group_at(
+            self.ctx,
+            pipeline,
+            &[
+                (0, uniform.as_entire_binding()),
+                (1, wgpu::BindingResource::TextureView(&texture.view)),
+                (2, wgpu::BindingResource::Sampler(&texture.sampler)),
+                (3, self.volume.lut_buffer().as_entire_binding()),
+                (4, self.occupancy.as_entire_binding()),
+                (9, self.lists.chords.as_entire_binding()),
+            ],
+        )?;
+        // At most 8192^2 texels (MAX_CACHE_SIZE): the groups fit a u32.
+        let groups = texels.div_ceil(TRACE_WORKGROUP as usize) as u32;
+        let x = groups.clamp(1, self.ctx.limits.max_compute_workgroups_per_dimension);
+        Ok((pipeline, group, [x, groups.div_ceil(x)]))
     }
 
     /// The trace's bind group for one piece.
@@ -519,6 +584,7 @@ impl Shared<'_> {
                 (6, outputs.scattered.as_entire_binding()),
                 (7, outputs.view.as_entire_binding()),
                 (8, outputs.depth.as_entire_binding()),
+                (9, lists.chords.as_entire_binding()),
                 (10, lists.cache.as_entire_binding()),
                 (11, lists.writes.as_entire_binding()),
                 (12, lists.counters.as_entire_binding()),
@@ -583,7 +649,8 @@ mod tests {
                 light_step,
                 ert_threshold,
                 piecewise,
-                first_pass
+                first_pass,
+                multiple
             ]
         );
         assert_mirrors!(

@@ -3,7 +3,7 @@
 use super::{IpsviInput, IpsviParams, MAX_CACHE_SIZE};
 use crate::error::Result;
 use crate::lights::LightKind;
-use crate::registry::{MethodSpec, ParamKind, ParamSpec, Range, RenderMethod};
+use crate::registry::{Choice, MethodSpec, ParamKind, ParamSpec, Range, RenderMethod};
 use crate::render::raycast::{ERT_THRESHOLD, STEP};
 use crate::render::reference::phase::G;
 use crate::render::{Factor, MethodInput, Rendered};
@@ -32,17 +32,45 @@ const PIECEWISE: ParamSpec = ParamSpec {
     kind: ParamKind::Bool,
 };
 
+const SCATTERING: ParamSpec = ParamSpec {
+    key: "scattering",
+    doc: "Which scattered light is rendered",
+    kind: ParamKind::Choice {
+        options: &[
+            Choice {
+                name: "single",
+                doc: "The light's first scattering, shadowed (Eq. 2 of the paper; the `single` \
+                      reference)",
+            },
+            Choice {
+                name: "multiple",
+                doc: "Also light scattered before: the diffusion solution of a beam along each \
+                      light ray, from its shadow transmittance (approximates the `multiple` \
+                      reference)",
+            },
+        ],
+    },
+};
+
 impl RenderMethod for IpsviParams {
     const SPEC: MethodSpec = MethodSpec {
         name: "ipsvi",
-        summary: "Image plane sweep volume illumination: single scattering with shadows from suns \
-                  and lamps in one ray-casting pass (Sundén et al. 2011)",
+        summary: "Image plane sweep volume illumination: single (or approximated multiple) \
+                  scattering with shadows from suns and lamps in one ray-casting pass (Sundén et al. 2011)",
         module: "render::ipsvi",
         shaders: &["ipsvi.wgsl", "ipsvi_merge.wgsl"],
         lights: &[LightKind::Directional, LightKind::Point],
         layers: &["beauty", "depth", "ipsvi", "shadow"],
         grids: &[],
-        params: &[CACHE_SIZE, LINE_WIDTH, PIECEWISE, G, STEP, ERT_THRESHOLD],
+        params: &[
+            CACHE_SIZE,
+            LINE_WIDTH,
+            PIECEWISE,
+            SCATTERING,
+            G,
+            STEP,
+            ERT_THRESHOLD,
+        ],
     };
 
     fn resolve(self) -> Result<Self> {

@@ -32,19 +32,28 @@
 //!   light is attenuated by the material the view rays happened to cross in its texel, not by
 //!   the light's own path. Cheaper, and wrong where view and light paths differ in length.
 //!
+//! `scattering = "multiple"` adds the light scattered more than once ([`diffusion`]): a sample
+//! also scatters `albedo * E_l(x) * phi / (4 pi)`, phi being the diffuse fluence of a beam in a
+//! slab along the light ray, at the depth -ln T_l(x) of a slab as deep as the light ray's path
+//! through the box (each texel's chord, integrated once per light before its sweep and
+//! interpolated as T_l is). It costs a few exponentials per sample, the chord pass over the
+//! cache's texels, and one f32 per texel.
+//!
 //! Outputs: the image, depth (where the view transmittance falls through 0.5, as the ray
 //! caster's) and `shadow`: at that depth the lights' transmittance, weighted by their
 //! irradiance there (1 where the depth is background). Several lights are swept one after the
 //! other (single scattering is linear in the lights); emission and background are added once.
-//! Extra memory: two u64 per cache texel (the cache and its merge list grow with the image,
-//! not with the volume); on the GPU also a u32 per texel (the texels a line wrote) and a list of
-//! a line's writes (at most 64 MiB: long lines are traced in pieces).
+//! Extra memory: two u64 per cache texel, one f32 more with multiple scattering (the cache,
+//! its merge list and the chords grow with the image, not with the volume); on the GPU also a
+//! u32 per texel (the texels a line wrote) and a list of a line's writes (at most 64 MiB: long
+//! lines are traced in pieces).
 //!
 //! `cpu` and `gpu` are twins that render the same image (tests/ipsvi_twins.rs states how
 //! closely and why).
 
 pub mod cache;
 pub mod cpu;
+pub mod diffusion;
 pub mod gpu;
 mod method;
 pub mod sweep;
@@ -82,6 +91,20 @@ pub struct IpsviParams {
     pub step: Option<f32>,
     /// Early ray termination: stop a view ray when its transmittance falls below this.
     pub ert_threshold: f32,
+    /// Single scattering, or with the diffuse light of [`diffusion`] added.
+    pub scattering: Scattering,
+}
+
+/// Which scattered light IPSVI renders.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
+#[serde(rename_all = "lowercase")]
+pub enum Scattering {
+    /// The light's first scattering towards the eye (the `single` reference's model).
+    #[default]
+    Single,
+    /// Also the light scattered before, as diffuse fluence along each light ray (the
+    /// `multiple` reference's model, approximated).
+    Multiple,
 }
 
 impl Default for IpsviParams {
@@ -93,6 +116,7 @@ impl Default for IpsviParams {
             g: 0.0,
             step: None,
             ert_threshold: 1e-3,
+            scattering: Scattering::Single,
         }
     }
 }
