@@ -6,7 +6,8 @@ use occlux::ao::reference::AoVariant;
 use occlux::ao::sweep::geometric::GeometricParams;
 use occlux::ao::AoVolumeParams;
 use occlux::eval::{
-    bench, dos_accuracy, ipsvi_accuracy, sweep_accuracy, sweep_bench, vao_accuracy, vao_bench,
+    bench, chart, dos_accuracy, ipsvi_accuracy, sweep_accuracy, sweep_bench, vao_accuracy,
+    vao_bench,
 };
 use occlux::export::exr::Precision;
 use occlux::export::vdb::{Compression, VdbOptions};
@@ -105,6 +106,11 @@ enum Command {
     /// width, cache size, piecewise integration and early ray termination, with its time
     /// beside unshaded DVR's (CPU); table and JSON.
     IpsviAccuracy(ipsvi_accuracy::IpsviAccuracyArgs),
+    /// Speed against accuracy: every registered method at its chart settings, Occlux's Monte
+    /// Carlo and Cycles at increasing samples per pixel, per scene and lighting, against the
+    /// path-traced truth; the Pareto front and the speed-up over Cycles at equal error; CSV,
+    /// JSON, SVG and PNG in OUT/.
+    Chart(chart::ChartArgs),
     /// Occlusion sweeping's geometric mode at the paper's sizes on the box-and-sphere phantom
     /// (CPU): the signed distance alone, with the combined occlusion, with the eight octants;
     /// medians, the occlusion's cost over the signed distance's; table and JSON.
@@ -335,6 +341,7 @@ fn run(cli: Cli) -> occlux::Result<()> {
         Command::DosAccuracy(args) => dos_accuracy::run(&args, quiet),
         Command::SweepAccuracy(args) => sweep_accuracy::run(&args, quiet),
         Command::IpsviAccuracy(args) => ipsvi_accuracy::run(&args, quiet),
+        Command::Chart(args) => chart::run(&args, quiet),
         Command::BenchSweep(args) => sweep_bench::run(&args, quiet),
         Command::Reference {
             scene,

@@ -45,6 +45,11 @@ impl Bar {
         Self(bar)
     }
 
+    /// Shows what the bar's work is at now.
+    pub fn message(&self, text: &str) {
+        self.0.set_message(text.to_owned());
+    }
+
     /// Removes the bar from the terminal.
     pub fn finish(&self) {
         self.0.finish_and_clear();

@@ -33,6 +33,9 @@ pub struct MethodSpec {
     pub layers: &'static [&'static str],
     /// The VDB grids `export` writes for it beyond `density` and `value`.
     pub grids: &'static [&'static str],
+    /// The settings `occlux chart` measures it at: `[render]` keys as TOML ("" for the
+    /// defaults), its speed-accuracy trade-offs worth seeing beside the other methods'.
+    pub chart: &'static [&'static str],
     pub params: &'static [ParamSpec],
 }
 
@@ -162,6 +165,18 @@ impl std::fmt::Display for Range {
 }
 
 impl MethodSpec {
+    /// The method at one of its settings for `occlux chart` (`[render]` keys as TOML).
+    pub fn at_setting(&self, setting: &str) -> Result<Method> {
+        let mut table: Map<String, Value> = toml::from_str(setting).map_err(|e| {
+            Error::param(
+                format!("{}.chart", self.name),
+                format!("'{setting}': {}", e.message()),
+            )
+        })?;
+        table.insert("method".to_owned(), Value::String(self.name.to_owned()));
+        Method::from_table(table)
+    }
+
     /// Refuses lights the method does not render, naming the first such light.
     pub fn check_lights(&self, lighting: &Lighting) -> Result<()> {
         match lighting
@@ -443,6 +458,20 @@ mod tests {
         assert!(r.contains(0.0) && r.contains(89.99) && !r.contains(90.0));
         assert!(!Range::POSITIVE.contains(0.0) && Range::POSITIVE.contains(1e-30));
         assert!(!Range::POSITIVE.contains(f64::NAN) && !Range::POSITIVE.contains(f64::INFINITY));
+    }
+
+    #[test]
+    fn every_method_has_chart_settings_it_takes() {
+        for spec in METHODS {
+            assert!(!spec.chart.is_empty(), "{}", spec.name);
+            for setting in spec.chart {
+                let method = spec.at_setting(setting).unwrap();
+                assert_eq!(method.spec().name, spec.name, "{setting}");
+            }
+        }
+        let dos = find("dos").unwrap();
+        assert!(dos.at_setting("theta_deg = 95").is_err());
+        assert!(dos.at_setting("theta_deg = ").is_err());
     }
 
     #[test]

@@ -825,3 +825,111 @@ fn bench_times_the_registered_methods_and_records_their_parameters() {
     assert_eq!(rows[3]["params"]["grid"], 5);
     assert_eq!(rows[1]["ratio_to_gradient"], 1.0);
 }
+
+#[test]
+fn chart_measures_every_registered_method_and_writes_tables_and_figures() {
+    use occlux::registry::METHODS;
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("chart");
+    let demo = concat!(env!("CARGO_MANIFEST_DIR"), "/examples/demo.toml");
+    let run = occlux(&[
+        "chart",
+        "--scenes",
+        demo,
+        "--lightings",
+        "ambient,sun",
+        "--size",
+        "20",
+        "--spp",
+        "32",
+        "--mc-spp",
+        "2,8",
+        "--no-cycles",
+        "--repeats",
+        "1",
+        "-o",
+        out.to_str().unwrap(),
+    ]);
+    assert!(
+        run.status.success(),
+        "{}",
+        String::from_utf8_lossy(&run.stderr)
+    );
+    let report: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("chart.json")).unwrap()).unwrap();
+    let panels = report["panels"].as_array().unwrap();
+    assert_eq!(panels.len(), 2);
+    let mut rows = 0;
+    for panel in panels {
+        let lighting = panel["lighting"].as_str().unwrap();
+        let points = panel["points"].as_array().unwrap();
+        // Every setting of every method that renders this lighting's lights, and no other.
+        for spec in METHODS {
+            let takes = match lighting {
+                "ambient" => spec.lights.iter().any(|l| l.name() == "ambient"),
+                _ => spec.lights.iter().any(|l| l.name() == "directional"),
+            };
+            let measured = points.iter().filter(|p| p["method"] == spec.name).count();
+            let want = if takes { spec.chart.len() } else { 0 };
+            assert_eq!(measured, want, "{lighting} {}", spec.name);
+        }
+        // The front: each point on it is beaten by no other, each point off it by some other.
+        let pairs: Vec<(f64, f64, bool)> = points
+            .iter()
+            .map(|p| {
+                let error = p["rel_rmse"].as_f64().unwrap();
+                assert!(error.is_finite() && error > 0.0, "{p}");
+                (
+                    p["seconds"].as_f64().unwrap(),
+                    error,
+                    p["pareto"].as_bool().unwrap(),
+                )
+            })
+            .collect();
+        for &(t, e, front) in &pairs {
+            let beaten = pairs
+                .iter()
+                .any(|&(u, f, _)| u <= t && f <= e && (u < t || f < e));
+            assert_eq!(front, !beaten, "{lighting}: ({t}, {e})");
+        }
+        let curve = panel["monte_carlo"].as_array().unwrap();
+        assert_eq!(curve.len(), 2);
+        // Four times the samples: about half the error (Monte Carlo's law), far from equal.
+        let (e2, e8) = (
+            curve[0]["rel_rmse"].as_f64().unwrap(),
+            curve[1]["rel_rmse"].as_f64().unwrap(),
+        );
+        assert!(e8 < 0.8 * e2 && e8 > 0.3 * e2, "{e2} -> {e8}");
+        assert!(panel["cycles"].as_array().unwrap().is_empty());
+        rows += points.len() + curve.len();
+    }
+    // The CSV: a header and a row per point and per curve sample.
+    let csv = std::fs::read_to_string(out.join("chart.csv")).unwrap();
+    let lines: Vec<&str> = csv.lines().collect();
+    assert!(lines[0].starts_with("scene,lighting,method,setting,spp,seconds,rel_rmse"));
+    assert_eq!(lines.len(), 1 + rows);
+    // The figure: a panel title per panel in the SVG, and a PNG of the SVG's size.
+    let svg = std::fs::read_to_string(out.join("chart.svg")).unwrap();
+    assert!(svg.contains("demo, ambient") && svg.contains("demo, sun"));
+    let png = std::fs::File::open(out.join("chart.png")).unwrap();
+    let info = png::Decoder::new(std::io::BufReader::new(png))
+        .read_info()
+        .unwrap();
+    let (width, height) = occlux::eval::chart::plot::figure_size(2);
+    assert_eq!((info.info().width, info.info().height), (width, height));
+    // Bad input is named.
+    let bad = occlux(&[
+        "chart",
+        "--scenes",
+        demo,
+        "--mc-spp",
+        "0",
+        "-o",
+        out.to_str().unwrap(),
+    ]);
+    let stderr = String::from_utf8_lossy(&bad.stderr);
+    assert!(
+        !bad.status.success() && stderr.contains("--mc-spp"),
+        "{stderr}"
+    );
+}

@@ -76,12 +76,12 @@ impl CheckOptions<'_> {
     }
 }
 
-/// Runs the harness for `options.scene`, writing its report, images and error map into
-/// `options.out`. The harness computes Occlux's side in-process (the `occlux` package).
-pub fn run(options: &CheckOptions<'_>) -> Result<()> {
+/// The Python that can run the harness: found (see [`find_python`]) and able to import bpy and
+/// `occlux.cycles`; `what` names the command in errors.
+fn harness_python(what: &str) -> Result<PathBuf> {
     let python = find_python().ok_or_else(|| {
         Error::param(
-            "check-cycles",
+            what,
             format!("no Python environment with Blender found; {SETUP}"),
         )
     })?;
@@ -91,7 +91,7 @@ pub fn run(options: &CheckOptions<'_>) -> Result<()> {
         .map_err(|e| Error::io(&python, e))?;
     if !probe.status.success() {
         return Err(Error::param(
-            "check-cycles",
+            what,
             format!(
                 "{} cannot import bpy and occlux.cycles ({}); {SETUP}",
                 python.display(),
@@ -103,19 +103,74 @@ pub fn run(options: &CheckOptions<'_>) -> Result<()> {
             ),
         ));
     }
+    Ok(python)
+}
+
+/// Runs `python -m MODULE ARGS`; an error naming `what` unless it succeeds.
+fn run_module(what: &str, module: &str, args: &[std::ffi::OsString]) -> Result<()> {
+    let python = harness_python(what)?;
     let status = Command::new(&python)
-        .args(["-m", "occlux.cycles"])
-        .args(options.harness_args())
+        .args(["-m", module])
+        .args(args)
         .status()
         .map_err(|e| Error::io(&python, e))?;
     if status.success() {
         Ok(())
     } else {
         Err(Error::param(
-            "check-cycles",
+            what,
             format!("the Cycles harness failed ({status})"),
         ))
     }
+}
+
+/// Runs the harness for `options.scene`, writing its report, images and error map into
+/// `options.out`. The harness computes Occlux's side in-process (the `occlux` package).
+pub fn run(options: &CheckOptions<'_>) -> Result<()> {
+    run_module("check-cycles", "occlux.cycles", &options.harness_args())
+}
+
+/// One Cycles render of a time-error curve: its samples per pixel, its wall time from scratch
+/// (the volume build included) and the EXR it wrote.
+#[derive(Clone, Debug, serde::Deserialize, serde::Serialize)]
+pub struct CurvePoint {
+    pub spp: u32,
+    pub seconds: f64,
+    pub exr: PathBuf,
+}
+
+/// Renders `scene` with Cycles once per count of `spps` (`python -m occlux.cycles.curve`, which
+/// lights it for `estimator` as the cross-check does) into `out`, and returns the renders.
+pub fn curve(
+    scene: &Path,
+    estimator: &str,
+    spps: &[u32],
+    bounces: u32,
+    g: f32,
+    out: &Path,
+) -> Result<Vec<CurvePoint>> {
+    let spp_list: Vec<String> = spps.iter().map(u32::to_string).collect();
+    let mut args: Vec<std::ffi::OsString> = vec![scene.into()];
+    for (key, value) in [
+        ("--estimator", estimator.to_owned()),
+        ("--spp", spp_list.join(",")),
+        ("--bounces", bounces.to_string()),
+        ("--g", g.to_string()),
+    ] {
+        args.push(format!("{key}={value}").into());
+    }
+    args.push("--out".into());
+    args.push(out.into());
+    run_module("chart", "occlux.cycles.curve", &args)?;
+    #[derive(serde::Deserialize)]
+    struct Report {
+        points: Vec<CurvePoint>,
+    }
+    let path = out.join(format!("cycles-{estimator}-curve.json"));
+    let text = std::fs::read_to_string(&path).map_err(|e| Error::io(&path, e))?;
+    let report: Report = serde_json::from_str(&text)
+        .map_err(|e| Error::param("chart", format!("{}: {e}", path.display())))?;
+    Ok(report.points)
 }
 
 #[cfg(test)]

@@ -153,7 +153,7 @@ pub fn ambient_only(scene: &mut Scene) {
     }
 }
 
-/// A Monte Carlo reference of `scene` with `estimator`.
+/// A Monte Carlo reference of `scene` with `estimator` (seed 1).
 pub fn reference_image(
     scene: &Scene,
     volume: &crate::volume::Volume,
@@ -161,10 +161,22 @@ pub fn reference_image(
     estimator: Estimator,
     spp: u32,
 ) -> Result<ReferenceImage> {
+    seeded_reference_image(scene, volume, lut, estimator, spp, 1)
+}
+
+/// A Monte Carlo reference of `scene` with `estimator` and `seed`.
+pub fn seeded_reference_image(
+    scene: &Scene,
+    volume: &crate::volume::Volume,
+    lut: &crate::classify::Lut,
+    estimator: Estimator,
+    spp: u32,
+    seed: u64,
+) -> Result<ReferenceImage> {
     let params = ReferenceParams {
         estimator,
         spp,
-        seed: 1,
+        seed,
         g: 0.0,
     };
     reference::render(

@@ -1,5 +1,6 @@
 //! Evaluation: benchmarks and error metrics.
 pub mod bench;
+pub mod chart;
 pub mod cycles;
 pub mod dos_accuracy;
 pub mod ipsvi_accuracy;

@@ -280,6 +280,12 @@ impl RenderMethod for AoParams {
         lights: ALL_LIGHTS,
         layers: &["beauty", "depth"],
         grids: &[AO_GRID, AO_VARIANCE_GRID, SDF_GRID],
+        chart: &[
+            "ao_method = \"gauss\"\nao_radius = 4",
+            "ao_method = \"gauss\"\nao_radius = 10",
+            "ao_method = \"penner\"\nao_radius = 10",
+            "ao_method = \"sweep-physical\"",
+        ],
         params: &[
             STEP,
             ERT_THRESHOLD,

@@ -25,6 +25,7 @@ import occlux
 import occlux.cycles as oc
 import pytest
 from occlux.cycles.cli import parser as harness_parser
+from occlux.cycles.curve import render_curve
 from occlux_testing import oiio_read, run_occlux
 
 SPP = 128  # per pixel, for Occlux and for Cycles (32 renders of 4 samples)
@@ -564,3 +565,76 @@ def test_check_cycles_hands_every_option_to_the_harness(tmp_path, monkeypatch):
     argv = ["scene.toml", "--estimator", "multiple", "--spp", "64", "--seeds", "8"]
     argv += ["--bounces", "3", "--g", "-0.3", "-o", str(tmp_path / "out")]
     assert harness_args(*argv) == given
+
+
+# ---- Cycles' time-error curve and the speed-accuracy chart ----
+
+TINY_SUN = """
+background = 0.0
+[volume]
+phantom = "ct"
+size = 24
+[classification]
+preset = "ct-bone"
+[camera]
+position = [2.4, -2.6, 1.4]
+width = 24
+height = 24
+[[lights]]
+type = "directional"
+direction = [-0.3, -1.0, 1.2]
+irradiance = 3.0
+"""
+
+
+def test_the_curve_renders_cycles_once_per_sample_count(tmp_path):
+    """`python -m occlux.cycles.curve`: one timed render per sample count, written as EXR and
+    listed in the JSON; more samples, less noise against Occlux's reference."""
+    scene = tmp_path / "tiny.toml"
+    scene.write_text(TINY_SUN)
+    out = tmp_path / "curve"
+    report = render_curve(scene, "single", [1, 16], out)
+    assert json.loads((out / "cycles-single-curve.json").read_text()) == report
+    points = report["points"]
+    assert [p["spp"] for p in points] == [1, 16]
+    assert all(p["seconds"] > 0 for p in points)
+    truth = occlux.reference(occlux.Scene.load(scene), "single", spp=512).mean[..., :3]
+    lit = truth.max(axis=-1) > 1e-3
+    errors = []
+    for p in points:
+        image = oiio_read(Path(p["exr"]))
+        rgb = np.stack([image[c] for c in "RGB"], axis=-1)
+        errors.append(np.sqrt(np.mean((rgb - truth)[lit] ** 2)) / np.mean(truth[lit]))
+    # 16 times the samples: about a quarter of the error (bounded by the truth's own noise).
+    assert errors[1] < 0.5 * errors[0], errors
+    with pytest.raises(occlux.OccluxError, match="at least 1"):
+        render_curve(scene, "single", [0], out)
+
+
+def test_the_chart_runs_cycles_beside_the_methods(tmp_path, monkeypatch):
+    """`occlux chart` with Cycles (CI's reduced set: one small scene, two sample counts): its
+    curve in the JSON and the CSV, the speed-ups at equal error read off it, and the figure."""
+    import sys
+
+    monkeypatch.setenv("OCCLUX_PYTHON", sys.executable)
+    scene = tmp_path / "tiny.toml"
+    scene.write_text(TINY_SUN)
+    out = tmp_path / "chart"
+    run_occlux(
+        "chart", "--scenes", str(scene), "--lightings", "sun", "--size", "24", "--spp", "256",
+        "--mc-spp", "2,8", "--cycles-spp", "1,16", "--repeats", "1", "-o", str(out),
+    )  # fmt: skip
+    report = json.loads((out / "chart.json").read_text())
+    (panel,) = report["panels"]
+    cycles = panel["cycles"]
+    assert [c["spp"] for c in cycles] == [1, 16]
+    assert all(c["seconds"] > 0 for c in cycles)
+    assert cycles[1]["rel_rmse"] < 0.5 * cycles[0]["rel_rmse"], cycles
+    assert abs(cycles[1]["rel_bias"]) < 0.1, cycles  # Cycles agrees with Occlux's truth
+    for point in panel["points"]:
+        speedup = point["speedup_vs_cycles"]
+        assert speedup is None or (math.isfinite(speedup) and speedup > 0), point
+    assert any(p["speedup_vs_cycles"] is not None for p in panel["points"])
+    csv = (out / "chart.csv").read_text().splitlines()
+    assert sum(line.split(",")[2] == "cycles" for line in csv[1:]) == 2
+    assert "Cycles" in (out / "chart.svg").read_text()

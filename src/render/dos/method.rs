@@ -85,6 +85,7 @@ impl RenderMethod for DosParams {
         lights: &[LightKind::Ambient],
         layers: &["beauty", "depth", "dos", "occlusion"],
         grids: &[],
+        chart: &["theta_deg = 30", "theta_deg = 50", "theta_deg = 80"],
         params: &[
             THETA_DEG,
             GRID,

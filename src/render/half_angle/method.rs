@@ -37,6 +37,7 @@ impl RenderMethod for HalfAngleParams {
         lights: &[LightKind::Directional],
         layers: &["beauty", "depth", "half-angle", "shadow"],
         grids: &[],
+        chart: &[""],
         params: &[SLICE_DISTANCE, LIGHT_BUFFER, G],
     };
 

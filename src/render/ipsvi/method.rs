@@ -62,6 +62,7 @@ impl RenderMethod for IpsviParams {
         lights: &[LightKind::Directional, LightKind::Point],
         layers: &["beauty", "depth", "ipsvi", "shadow"],
         grids: &[],
+        chart: &["", "cache_size = 128", "scattering = \"multiple\""],
         params: &[
             CACHE_SIZE,
             LINE_WIDTH,

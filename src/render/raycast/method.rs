@@ -146,6 +146,7 @@ impl RenderMethod for UnshadedParams {
         lights: ALL_LIGHTS,
         layers: LAYERS,
         grids: &[],
+        chart: &[""],
         params: &MARCH,
     };
 
@@ -169,6 +170,7 @@ impl RenderMethod for GradientParams {
         lights: ALL_LIGHTS,
         layers: LAYERS,
         grids: &[],
+        chart: &[""],
         params: &[STEP, ERT_THRESHOLD, SPECULAR, SHININESS, NORMAL_THRESHOLD],
     };
 

@@ -40,7 +40,7 @@ the mean over the volume's pixels, while subsets of 2 or 4 samples of a 4096-sam
 matched Occlux within 0.2 % (1 sigma). Cycles' sampling pattern depends on the sample count."""
 
 
-def _bpy():
+def bpy_module():
     """Blender's Python module (the bpy wheel, or Blender itself)."""
     try:
         import bpy
@@ -250,7 +250,7 @@ def build_scene(
         raise HarnessError(f"g must be in (-1, 1), got {g}")
     bounces, g = effective_options(estimator, bounces, g)
     spec = load_scene(scene, volume)
-    bpy = _bpy()
+    bpy = bpy_module()
     _remove_previous(bpy)
     grid_path = padded_value_grid(vdb_path, spec)
     scene = bpy.data.scenes.new(f"{PREFIX}-scene")
@@ -335,7 +335,7 @@ class CyclesImage:
 
 
 @contextlib.contextmanager
-def _quiet_stdout():
+def quiet_stdout():
     """Blender logs every image it saves on the process's standard output (file descriptor 1,
     beneath Python's sys.stdout); this keeps those lines out of the harness's report."""
     sys.stdout.flush()
@@ -365,7 +365,7 @@ def render_scene(
     per_seed = spp // seeds
     if per_seed < 1:
         raise HarnessError(f"spp ({spp}) must be at least the number of seeds ({seeds})")
-    bpy = _bpy()
+    bpy = bpy_module()
     c = scene.cycles
     c.samples = max(SEQUENCE_LENGTH, per_seed * seeds)
     c.use_sample_subset = True
@@ -382,7 +382,7 @@ def render_scene(
                 c.seed = seed
                 c.sample_offset = k * per_seed
                 scene.render.filepath = str(Path(tmp) / f"seed{seed}.exr")
-                with _quiet_stdout():
+                with quiet_stdout():
                     result = bpy.ops.render.render(write_still=True, scene=scene.name)
                 if result != {"FINISHED"}:
                     raise HarnessError(f"Cycles render at seed {seed} ended with {result}")

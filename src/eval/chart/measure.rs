@@ -1,0 +1,437 @@
+//! The chart's measurements for one scene under one lighting: every registered method at each
+//! of its chart settings, Occlux's Monte Carlo and Cycles at increasing samples per pixel, all
+//! against the path-traced truth of the same lighting (Occlux's Monte Carlo reference at high
+//! spp, which `occlux check-cycles` shows agrees with Cycles).
+
+use super::pareto::{self, Curve, Reached};
+use crate::classify::Lut;
+use crate::error::{Error, Result};
+use crate::eval::bench::timed_keeping;
+use crate::eval::cycles;
+use crate::eval::dos_accuracy::seeded_reference_image;
+use crate::eval::sweep_accuracy::design_error;
+use crate::export::exr::read_exr;
+use crate::gpu::Compute;
+use crate::lights::Lighting;
+use crate::progress::NoProgress;
+use crate::registry::{Method, METHODS};
+use crate::render::reference::{self, Estimator};
+use crate::render::MethodInput;
+use crate::scene::Scene;
+use crate::volume::Volume;
+use serde::Serialize;
+use serde_json::Value;
+use std::path::{Path, PathBuf};
+
+/// Volume bounces of the multiple-scattering lighting (those of the engine's Cycles reference).
+pub const BOUNCES: u32 = 8;
+
+/// What light a panel's scene is under, and so which path-traced truth it is measured against.
+#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum LightingMode {
+    /// The scene's ambient lights (uniform radiance 1 if it has none), single scattering: the
+    /// `ambient` estimator (volumetric ambient occlusion).
+    Ambient,
+    /// The scene's suns and lamps, single scattering with shadows: the `single` estimator.
+    Sun,
+    /// The scene's suns and lamps, multiple scattering (8 bounces): the `multiple` estimator.
+    Multi,
+}
+
+impl LightingMode {
+    pub fn name(self) -> &'static str {
+        match self {
+            LightingMode::Ambient => "ambient",
+            LightingMode::Sun => "sun",
+            LightingMode::Multi => "multi",
+        }
+    }
+
+    /// The Monte Carlo estimator of its truth.
+    pub fn estimator(self) -> Estimator {
+        match self {
+            LightingMode::Ambient => Estimator::Ambient,
+            LightingMode::Sun => Estimator::Single,
+            LightingMode::Multi => Estimator::Multiple { bounces: BOUNCES },
+        }
+    }
+
+    /// The scene file's tree lit this way at `size` pixels square: its lights of the kinds
+    /// this lighting uses (a uniform ambient light of radiance 1 if an ambient scene has
+    /// none), the volume's path made absolute against `base` (the tree is written elsewhere
+    /// for Cycles), and no `[render]` (the chart picks the methods).
+    pub fn scene_tree(self, mut tree: Value, base: &Path, size: u32) -> Result<Value> {
+        let table = tree
+            .as_object_mut()
+            .ok_or_else(|| Error::param("scene", "not a table"))?;
+        table.remove("render");
+        let camera = table
+            .get_mut("camera")
+            .and_then(Value::as_object_mut)
+            .ok_or_else(|| Error::param("camera", "missing"))?;
+        camera.insert("width".into(), size.into());
+        camera.insert("height".into(), size.into());
+        if let Some(Value::String(path)) = table.get("volume").and_then(|v| v.get("path")) {
+            let joined = base.join(path);
+            let absolute = std::path::absolute(&joined).map_err(|e| Error::io(&joined, e))?;
+            table["volume"]["path"] = absolute.to_string_lossy().into_owned().into();
+        }
+        let wanted = |kind: &str| match self {
+            LightingMode::Ambient => kind == "ambient",
+            LightingMode::Sun | LightingMode::Multi => kind == "directional" || kind == "point",
+        };
+        let mut lights: Vec<Value> = table
+            .get("lights")
+            .and_then(Value::as_array)
+            .cloned()
+            .unwrap_or_default()
+            .into_iter()
+            .filter(|l| l.get("type").and_then(Value::as_str).is_some_and(wanted))
+            .collect();
+        if lights.is_empty() {
+            match self {
+                LightingMode::Ambient => {
+                    lights.push(serde_json::json!({ "type": "ambient", "radiance": 1.0 }))
+                }
+                LightingMode::Sun | LightingMode::Multi => {
+                    return Err(Error::param(
+                        "lights",
+                        format!("no sun or lamp for the {} lighting", self.name()),
+                    ))
+                }
+            }
+        }
+        table.insert("lights".into(), Value::Array(lights));
+        Ok(tree)
+    }
+}
+
+/// One method at one setting, measured.
+#[derive(Clone, Debug, Serialize)]
+pub struct Point {
+    pub scene: String,
+    pub lighting: &'static str,
+    pub method: &'static str,
+    /// Its `[render]` keys beyond the defaults ("" for the defaults).
+    pub setting: String,
+    /// The device it ran on.
+    pub device: String,
+    /// Median wall time of the render, volume loaded (see the module docs of `chart`).
+    pub seconds: f64,
+    pub rel_rmse: f64,
+    pub rel_bias: f64,
+    /// On the panel's Pareto front of time against error.
+    pub pareto: bool,
+    /// Cycles' time to the same error over this point's time, and how Cycles' time was read
+    /// off its curve; None without a Cycles curve.
+    pub speedup_vs_cycles: Option<f64>,
+    pub cycles_reached: Option<Reached>,
+    /// The same against Occlux's own Monte Carlo.
+    pub speedup_vs_monte_carlo: Option<f64>,
+}
+
+/// A path tracer at one sample count.
+#[derive(Clone, Debug, Serialize)]
+pub struct CurvePoint {
+    pub spp: u32,
+    pub seconds: f64,
+    pub rel_rmse: f64,
+    pub rel_bias: f64,
+}
+
+/// One scene under one lighting.
+#[derive(Clone, Debug, Serialize)]
+pub struct Panel {
+    pub scene: String,
+    pub lighting: &'static str,
+    pub reference_spp: u32,
+    /// The truth's own relative noise (design_error's).
+    pub reference_noise: f64,
+    pub points: Vec<Point>,
+    pub monte_carlo: Vec<CurvePoint>,
+    pub cycles: Vec<CurvePoint>,
+}
+
+/// What a panel is measured with.
+pub struct Setup<'a> {
+    pub compute: &'a Compute,
+    pub reference_spp: u32,
+    pub mc_spp: &'a [u32],
+    /// Cycles' sample counts; empty: no Cycles curve.
+    pub cycles_spp: &'a [u32],
+    pub repeats: usize,
+    /// Where the lit scene file and Cycles' renders go.
+    pub work: &'a Path,
+    pub progress: &'a dyn Fn(&str),
+}
+
+/// The loaded scene of a panel and its truth.
+struct Truth<'a> {
+    scene: &'a Scene,
+    volume: &'a Volume,
+    lut: &'a Lut,
+    mean: Vec<[f32; 3]>,
+    background: f32,
+}
+
+impl Truth<'_> {
+    /// Relative RMSE and bias of an image against the truth (DESIGN.md's measure).
+    fn error(&self, image: &[[f32; 4]]) -> Result<(f64, f64)> {
+        let (_, rmse, bias, _) = design_error(image, &self.mean, None, self.background)?;
+        Ok((rmse, bias))
+    }
+}
+
+/// Occlux's Monte Carlo reference of `scene` at `spp` with `seed`, and its time.
+fn monte_carlo(
+    scene: &Scene,
+    volume: &Volume,
+    lut: &Lut,
+    estimator: Estimator,
+    spp: u32,
+    seed: u64,
+) -> Result<(f64, reference::ReferenceImage)> {
+    let started = std::time::Instant::now();
+    let image = seeded_reference_image(scene, volume, lut, estimator, spp, seed)?;
+    Ok((started.elapsed().as_secs_f64(), image))
+}
+
+/// Measures one scene file under one lighting.
+pub fn panel(path: &Path, light: LightingMode, size: u32, setup: &Setup) -> Result<Panel> {
+    let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+    let tree: Value = toml::from_str(&text).map_err(|e| Error::format(path, e.message()))?;
+    let base = path.parent().unwrap_or(Path::new("."));
+    let tree = light
+        .scene_tree(tree, base, size)
+        .map_err(|e| Error::format(path, e.to_string()))?;
+    let scene = Scene::from_value(tree.clone(), base)?;
+    let name = path
+        .file_stem()
+        .map_or("scene".into(), |s| s.to_string_lossy().into_owned());
+    (setup.progress)(&format!("{name} {}: reference", light.name()));
+    let volume = scene.load_volume()?;
+    let lut = scene.classification.bake(&volume);
+    let estimator = light.estimator();
+    let (_, truth_image) = monte_carlo(&scene, &volume, &lut, estimator, setup.reference_spp, 1)?;
+    let background = scene.lighting.background.element_sum() / 3.0;
+    let mean: Vec<[f32; 3]> = truth_image
+        .mean
+        .iter()
+        .map(|m| [m[0], m[1], m[2]])
+        .collect();
+    let (_, _, _, reference_noise) = design_error(
+        &truth_image.mean,
+        &mean,
+        Some(&truth_image.stderr),
+        background,
+    )?;
+    let truth = Truth {
+        scene: &scene,
+        volume: &volume,
+        lut: &lut,
+        mean,
+        background,
+    };
+    let mut points = methods(&truth, &name, light, setup)?;
+    let monte_carlo = mc_curve(&truth, estimator, setup)?;
+    let cycles = if setup.cycles_spp.is_empty() {
+        vec![]
+    } else {
+        (setup.progress)(&format!("{name} {}: Cycles", light.name()));
+        cycles_curve(&truth, &tree, &name, light, setup)?
+    };
+    mark(&mut points, &monte_carlo, &cycles);
+    Ok(Panel {
+        scene: name,
+        lighting: light.name(),
+        reference_spp: setup.reference_spp,
+        reference_noise,
+        points,
+        monte_carlo,
+        cycles,
+    })
+}
+
+/// Every registered method at each of its chart settings that renders some of the lights.
+fn methods(truth: &Truth, name: &str, light: LightingMode, setup: &Setup) -> Result<Vec<Point>> {
+    let mut points = vec![];
+    for spec in METHODS {
+        let lit = Lighting {
+            lights: truth
+                .scene
+                .lighting
+                .lights
+                .iter()
+                .filter(|l| spec.lights.contains(&l.kind()))
+                .copied()
+                .collect(),
+            background: truth.scene.lighting.background,
+        };
+        if lit.lights.is_empty() {
+            continue;
+        }
+        for setting in spec.chart {
+            (setup.progress)(&format!("{name} {}: {} {setting}", light.name(), spec.name));
+            let method: Method = spec.at_setting(setting)?;
+            let input = MethodInput {
+                volume: truth.volume,
+                classification: &truth.scene.classification,
+                lut: truth.lut,
+                camera: &truth.scene.camera,
+                lighting: &lit,
+                compute: setup.compute,
+                progress: &NoProgress,
+            };
+            let (timing, rendered) = timed_keeping(setup.repeats, || method.render(&input))?;
+            let (rel_rmse, rel_bias) = truth.error(&rendered.image.rgba)?;
+            points.push(Point {
+                scene: name.to_owned(),
+                lighting: light.name(),
+                method: spec.name,
+                setting: setting.replace('\n', ", "),
+                device: setup.compute.describe(),
+                seconds: timing.median_ms / 1e3,
+                rel_rmse,
+                rel_bias,
+                pareto: false,
+                speedup_vs_cycles: None,
+                cycles_reached: None,
+                speedup_vs_monte_carlo: None,
+            });
+        }
+    }
+    Ok(points)
+}
+
+/// Occlux's Monte Carlo at each of `setup.mc_spp`, with another seed than the truth's.
+fn mc_curve(truth: &Truth, estimator: Estimator, setup: &Setup) -> Result<Vec<CurvePoint>> {
+    setup
+        .mc_spp
+        .iter()
+        .map(|&spp| {
+            let (seconds, image) =
+                monte_carlo(truth.scene, truth.volume, truth.lut, estimator, spp, 2)?;
+            let (rel_rmse, rel_bias) = truth.error(&image.mean)?;
+            Ok(CurvePoint {
+                spp,
+                seconds,
+                rel_rmse,
+                rel_bias,
+            })
+        })
+        .collect()
+}
+
+/// Cycles at each of `setup.cycles_spp` on the lit scene, written as a scene file for the
+/// harness.
+fn cycles_curve(
+    truth: &Truth,
+    tree: &Value,
+    name: &str,
+    light: LightingMode,
+    setup: &Setup,
+) -> Result<Vec<CurvePoint>> {
+    let folder: PathBuf = setup.work.join(format!("{name}-{}", light.name()));
+    std::fs::create_dir_all(&folder).map_err(|e| Error::io(&folder, e))?;
+    let scene_file = folder.join(format!("{name}.toml"));
+    let text = toml::to_string(tree).map_err(|e| Error::param("chart", e.to_string()))?;
+    crate::export::atomic::write_bytes_atomic(&scene_file, text.as_bytes())?;
+    let estimator = light.estimator();
+    let renders = cycles::curve(
+        &scene_file,
+        estimator.name(),
+        setup.cycles_spp,
+        BOUNCES,
+        0.0,
+        &folder,
+    )
+    .map_err(|e| {
+        Error::param(
+            "--cycles-spp",
+            format!("{e} (--no-cycles leaves Cycles out)"),
+        )
+    })?;
+    renders
+        .iter()
+        .map(|render| {
+            let exr = read_exr(&render.exr)?;
+            let rgb = exr
+                .rgb()
+                .ok_or_else(|| Error::format(&render.exr, "no layer with R, G and B"))?;
+            let rgba: Vec<[f32; 4]> = rgb.iter().map(|c| [c[0], c[1], c[2], 1.0]).collect();
+            let (rel_rmse, rel_bias) = truth.error(&rgba)?;
+            Ok(CurvePoint {
+                spp: render.spp,
+                seconds: render.seconds,
+                rel_rmse,
+                rel_bias,
+            })
+        })
+        .collect()
+}
+
+/// The Pareto front among the panel's methods, and each one's speed-up at equal error.
+fn mark(points: &mut [Point], monte_carlo: &[CurvePoint], cycles: &[CurvePoint]) {
+    let pairs: Vec<(f64, f64)> = points.iter().map(|p| (p.seconds, p.rel_rmse)).collect();
+    let curve = |c: &[CurvePoint]| Curve {
+        points: c.iter().map(|p| (p.spp, p.seconds, p.rel_rmse)).collect(),
+    };
+    let (mc, cy) = (curve(monte_carlo), curve(cycles));
+    for (point, on_front) in points.iter_mut().zip(pareto::front(&pairs)) {
+        point.pareto = on_front;
+        if let Some((t, how)) = cy.time_for(point.rel_rmse) {
+            point.speedup_vs_cycles = Some(t / point.seconds);
+            point.cycles_reached = Some(how);
+        }
+        point.speedup_vs_monte_carlo = mc.time_for(point.rel_rmse).map(|(t, _)| t / point.seconds);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn tree() -> Value {
+        toml::from_str(
+            "[volume]\npath = \"data/ct.nrrd\"\n[camera]\nposition = [0, -4, 0]\n\
+             [[lights]]\ntype = \"ambient\"\nradiance = 0.3\n\
+             [[lights]]\ntype = \"directional\"\ndirection = [0, 0, 1]\nirradiance = 3\n\
+             [render]\nmethod = \"dos\"\n",
+        )
+        .unwrap()
+    }
+
+    #[test]
+    fn each_lighting_keeps_its_lights_and_the_volume_is_found_from_anywhere() {
+        let base = Path::new("examples");
+        let kinds = |t: &Value| -> Vec<String> {
+            t["lights"]
+                .as_array()
+                .unwrap()
+                .iter()
+                .map(|l| l["type"].as_str().unwrap().to_owned())
+                .collect()
+        };
+        let ambient = LightingMode::Ambient.scene_tree(tree(), base, 24).unwrap();
+        assert_eq!(kinds(&ambient), ["ambient"]);
+        let sun = LightingMode::Multi.scene_tree(tree(), base, 24).unwrap();
+        assert_eq!(kinds(&sun), ["directional"]);
+        assert!(sun.get("render").is_none());
+        assert_eq!(sun["camera"]["width"], 24);
+        let path = PathBuf::from(sun["volume"]["path"].as_str().unwrap());
+        assert!(
+            path.is_absolute() && path.ends_with("examples/data/ct.nrrd"),
+            "{path:?}"
+        );
+        // No sun: an ambient scene gets radiance 1; a sun lighting cannot be made.
+        let mut dark = tree();
+        dark["lights"] = Value::Array(vec![]);
+        let lit = LightingMode::Ambient
+            .scene_tree(dark.clone(), base, 8)
+            .unwrap();
+        assert_eq!(lit["lights"][0]["radiance"], 1.0);
+        let err = LightingMode::Sun.scene_tree(dark, base, 8).unwrap_err();
+        assert!(err.to_string().contains("no sun or lamp"), "{err}");
+    }
+}

@@ -1,0 +1,228 @@
+//! `occlux chart`: speed against accuracy. Every registered method at each of its chart
+//! settings ([`crate::registry::MethodSpec::chart`]: a method joins by registering), Occlux's
+//! Monte Carlo and Cycles at increasing samples per pixel, on each scene under each lighting,
+//! all measured against the path-traced truth of that lighting ([`measure`]). Time: the median
+//! wall time after a warm-up render, from the loaded volume to the image, everything the method
+//! computes on the way included (an AO volume, the GPU upload); Cycles' from scratch, its
+//! volume build included, as a user pays it. Error: relative RMSE and bias over the volume's
+//! pixels (DESIGN.md). Writes OUT/chart.json, OUT/chart.csv, OUT/chart.svg and OUT/chart.png
+//! (log time against log error, a panel per scene and lighting, the Pareto front filled,
+//! the path tracers as lines).
+
+pub mod measure;
+pub mod pareto;
+pub mod plot;
+
+use crate::error::{Error, Result};
+use crate::export::atomic::write_bytes_atomic;
+use crate::gpu::{Compute, DeviceChoice};
+use crate::progress::Progress;
+use measure::{LightingMode, Panel, Setup};
+use serde::Serialize;
+use std::path::PathBuf;
+
+#[derive(clap::Args, Debug)]
+pub struct ChartArgs {
+    /// Scene files (each one's volume, classification and camera; its lights by --lightings).
+    #[arg(
+        long,
+        value_delimiter = ',',
+        default_value = "examples/engine-sun.toml"
+    )]
+    pub scenes: Vec<PathBuf>,
+    /// Lightings: ambient (the scene's ambient lights, or radiance 1), sun (its suns and
+    /// lamps, single scattering), multi (the same, multiple scattering with 8 bounces).
+    #[arg(long, value_delimiter = ',', default_value = "ambient,sun,multi")]
+    pub lightings: Vec<LightingMode>,
+    /// Square image side.
+    #[arg(long, default_value_t = 128)]
+    pub size: u32,
+    /// Samples per pixel of the truth (Occlux's Monte Carlo reference).
+    #[arg(long, default_value_t = 1024)]
+    pub spp: u32,
+    /// Occlux's Monte Carlo curve: its sample counts (at least 2: it states its noise).
+    #[arg(long, value_delimiter = ',', default_value = "2,8,32,128")]
+    pub mc_spp: Vec<u32>,
+    /// Cycles' curve: its sample counts (through the harness, in the venv of .ci/run).
+    #[arg(long, value_delimiter = ',', default_value = "1,4,16")]
+    pub cycles_spp: Vec<u32>,
+    /// Leave Cycles out (no Python with Blender needed).
+    #[arg(long)]
+    pub no_cycles: bool,
+    /// Timed renders per method setting (median, after one warm-up).
+    #[arg(long, default_value_t = 3)]
+    pub repeats: usize,
+    /// Where the methods run; auto picks a hardware GPU adapter if one opens.
+    #[arg(long, value_enum, default_value = "cpu")]
+    pub device: DeviceChoice,
+    #[arg(short, long, default_value = "occlux-chart")]
+    pub out: PathBuf,
+}
+
+#[derive(Serialize)]
+struct Report<'a> {
+    device: String,
+    cpu_threads: usize,
+    size: u32,
+    panels: &'a [Panel],
+}
+
+pub fn run(args: &ChartArgs, quiet: bool) -> Result<()> {
+    if args.scenes.is_empty() || args.lightings.is_empty() || args.repeats == 0 {
+        return Err(Error::param(
+            "--scenes/--lightings/--repeats",
+            "need at least one scene, one lighting and one repeat",
+        ));
+    }
+    if args.size == 0 || args.size > crate::camera::MAX_IMAGE_SIDE {
+        return Err(Error::param(
+            "--size",
+            format!(
+                "must be in 1..={}, got {}",
+                crate::camera::MAX_IMAGE_SIDE,
+                args.size
+            ),
+        ));
+    }
+    if args.mc_spp.iter().chain(&args.cycles_spp).any(|&s| s == 0) || args.spp == 0 {
+        return Err(Error::param(
+            "--spp/--mc-spp/--cycles-spp",
+            "sample counts must be at least 1",
+        ));
+    }
+    let (compute, notice) = Compute::resolve(args.device)?;
+    if let Some(line) = notice {
+        crate::progress::notice(quiet, line);
+    }
+    let work = args.out.join("work");
+    std::fs::create_dir_all(&work).map_err(|e| Error::io(&work, e))?;
+    let panels_total = (args.scenes.len() * args.lightings.len()) as u64;
+    let bar = crate::progress::Bar::new(quiet, panels_total, "chart");
+    let say = |line: &str| bar.message(line);
+    let cycles_spp: &[u32] = if args.no_cycles {
+        &[]
+    } else {
+        &args.cycles_spp
+    };
+    let setup = Setup {
+        compute: &compute,
+        reference_spp: args.spp,
+        mc_spp: &args.mc_spp,
+        cycles_spp,
+        repeats: args.repeats,
+        work: &work,
+        progress: &say,
+    };
+    let mut panels = vec![];
+    for path in &args.scenes {
+        for &light in &args.lightings {
+            panels.push(measure::panel(path, light, args.size, &setup)?);
+            bar.update(panels.len() as u64, panels_total);
+        }
+    }
+    bar.finish();
+    for panel in &panels {
+        for p in &panel.points {
+            crate::progress::say(
+                quiet,
+                format_args!(
+                    "{:<12} {:<7} {:<11} {:<40} {:>8.3} s  rel RMSE {:.3} bias {:+.3}{}{}",
+                    panel.scene,
+                    panel.lighting,
+                    p.method,
+                    p.setting,
+                    p.seconds,
+                    p.rel_rmse,
+                    p.rel_bias,
+                    if p.pareto { "  (front)" } else { "" },
+                    p.speedup_vs_cycles.map_or(String::new(), |s| {
+                        let first = p.cycles_reached == Some(pareto::Reached::FirstSample);
+                        format!("  {s:.1}x Cycles{}", if first { " at 1 spp" } else { "" })
+                    }),
+                ),
+            );
+        }
+    }
+    let report = Report {
+        device: compute.describe(),
+        cpu_threads: rayon::current_num_threads(),
+        size: args.size,
+        panels: &panels,
+    };
+    super::write_report(&args.out.join("chart.json"), &report, quiet)?;
+    let csv = args.out.join("chart.csv");
+    write_bytes_atomic(&csv, csv_text(&panels).as_bytes())?;
+    let (svg, png) = (args.out.join("chart.svg"), args.out.join("chart.png"));
+    plot::write_charts(&figure(&panels), &svg, &png)?;
+    crate::progress::report_written(&[csv, svg, png], quiet);
+    Ok(())
+}
+
+/// One row per method setting and per path-tracer sample count.
+fn csv_text(panels: &[Panel]) -> String {
+    let mut text = String::from(
+        "scene,lighting,method,setting,spp,seconds,rel_rmse,rel_bias,pareto,speedup_vs_cycles,speedup_vs_monte_carlo\n",
+    );
+    let opt = |v: Option<f64>| v.map_or(String::new(), |v| format!("{v:.4}"));
+    for panel in panels {
+        for p in &panel.points {
+            text += &format!(
+                "{},{},{},\"{}\",,{:.6},{:.6},{:.6},{},{},{}\n",
+                panel.scene,
+                panel.lighting,
+                p.method,
+                p.setting.replace('"', "\"\""),
+                p.seconds,
+                p.rel_rmse,
+                p.rel_bias,
+                p.pareto,
+                opt(p.speedup_vs_cycles),
+                opt(p.speedup_vs_monte_carlo)
+            );
+        }
+        for (name, curve) in [
+            ("monte-carlo", &panel.monte_carlo),
+            ("cycles", &panel.cycles),
+        ] {
+            for c in curve.iter() {
+                text += &format!(
+                    "{},{},{name},,{},{:.6},{:.6},{:.6},,,\n",
+                    panel.scene, panel.lighting, c.spp, c.seconds, c.rel_rmse, c.rel_bias
+                );
+            }
+        }
+    }
+    text
+}
+
+/// The figure's panels.
+fn figure(panels: &[Panel]) -> Vec<plot::Panel> {
+    panels
+        .iter()
+        .map(|panel| plot::Panel {
+            title: format!("{}, {}", panel.scene, panel.lighting),
+            points: panel
+                .points
+                .iter()
+                .map(|p| plot::PlotPoint {
+                    series: p.method.to_owned(),
+                    label: p.setting.clone(),
+                    seconds: p.seconds,
+                    error: p.rel_rmse,
+                    pareto: p.pareto,
+                })
+                .collect(),
+            curves: [
+                ("Occlux Monte Carlo", &panel.monte_carlo),
+                ("Cycles", &panel.cycles),
+            ]
+            .into_iter()
+            .filter(|(_, c)| !c.is_empty())
+            .map(|(name, c)| plot::Curve {
+                name: name.to_owned(),
+                points: c.iter().map(|p| (p.seconds, p.rel_rmse)).collect(),
+            })
+            .collect(),
+        })
+        .collect()
+}
