@@ -20,6 +20,8 @@ const BACKGROUND_DEPTH: f32 = 1.0e10;
 // Stands for the CPU's infinite lengths (no anchor, a sun's distance): longer than any path
 // through a box, so every min it enters picks the other operand as the CPU's infinity does.
 const FAR: f32 = 3.0e38;
+// cpu::MIN_TRANSMITTANCE: the least transmittance whose optical depth is interpolated.
+const MIN_TRANSMITTANCE: f32 = 1e-30;
 // f32::MIN_POSITIVE.
 const MIN_POSITIVE: f32 = 1.17549435e-38;
 // std::f32::consts::FRAC_1_PI.
@@ -331,11 +333,11 @@ fn release(held: ptr<function, array<Held, 4>>, keep: vec4<u32>, keep_any: bool)
 }
 
 // Tracer::light_piecewise: per cache ray around the sample, the light continued from the
-// furthest entry behind it (the ray's own or the cache's) along that cache ray, bilinearly
-// weighted.
+// furthest entry behind it (the ray's own or the cache's) along that cache ray; their optical
+// depths bilinearly weighted.
 fn light_piecewise(place: Place, held: ptr<function, array<Held, 4>>) -> f32 {
     release(held, place.corners, true);
-    var light = 0.0;
+    var depth = 0.0;
     for (var i = 0u; i < 4u; i = i + 1u) {
         let texel = place.corners[i];
         let weight = place.weights[i];
@@ -368,7 +370,7 @@ fn light_piecewise(place: Place, held: ptr<function, array<Held, 4>>) -> f32 {
             tau = optical_depth(ray_point(texel, place.s), limit);
         }
         let t = t0 * exp(-tau);
-        light = light + weight * t;
+        depth = depth + weight * -log(max(t, MIN_TRANSMITTANCE));
         // Written: the entry nearest the light, where every later sample can start.
         let entry = pack_entry(place.s, t);
         if (own >= 0) {
@@ -381,7 +383,7 @@ fn light_piecewise(place: Place, held: ptr<function, array<Held, 4>>) -> f32 {
             hold_new(held, texel, place.s, t, entry);
         }
     }
-    return light;
+    return exp(-depth);
 }
 
 // Tracer::light_basic: the light read from the nearest cache ray (this view ray's own entry

@@ -173,10 +173,13 @@ pub fn render(input: &HalfAngleInput, progress: &dyn Progress) -> Result<(Render
             eyes.iter_mut().for_each(|eye| eye.transmittance = 1.0);
         }
         eyes.iter_mut().for_each(|eye| eye.this_sun = Vec3::ZERO);
-        let mut light = vec![1.0f32; slicing.map.texels()];
+        // The light buffer holds the optical depth each light ray has crossed: interpolated
+        // between rays it errs far less than the transmittance where that falls by orders of
+        // magnitude across a texel (a backlit body; IPSVI interpolates the same way).
+        let mut depth = vec![0.0f32; slicing.map.texels()];
         for k in 0..slicing.slabs {
             let c = slicing.middle(k, d);
-            let buffer = &light;
+            let buffer = &depth;
             eyes.par_iter_mut().for_each(|eye| {
                 let Some(sample) = view_sample(&eye.ray, slicing.h, c, d, (lo, hi)) else {
                     return;
@@ -186,12 +189,13 @@ pub fn render(input: &HalfAngleInput, progress: &dyn Progress) -> Result<(Render
                     return;
                 }
                 let place = slicing.map.place(sample.x);
-                let lit: f32 = place
+                let crossed: f32 = place
                     .corners
                     .iter()
                     .zip(place.weights)
                     .map(|(&texel, w)| w * buffer[texel as usize])
                     .sum();
+                let lit = (-crossed).exp();
                 shade(
                     eye,
                     slicing,
@@ -202,12 +206,12 @@ pub fn render(input: &HalfAngleInput, progress: &dyn Progress) -> Result<(Render
                     pass == 0,
                 );
             });
-            light.par_iter_mut().enumerate().for_each(|(texel, t)| {
+            depth.par_iter_mut().enumerate().for_each(|(texel, tau)| {
                 let base = slicing.map.ray_point(texel as u32, 0.0);
                 let across = slicing.travel.dot(slicing.h);
                 let p = base + slicing.travel * ((c - base.dot(slicing.h)) / across);
                 if p.cmpge(lo).all() && p.cmple(hi).all() {
-                    *t *= (-medium.optical(p).sigma_t * d / across).exp();
+                    *tau += medium.optical(p).sigma_t * d / across;
                 }
             });
             done += 1;

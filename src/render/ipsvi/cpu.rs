@@ -117,6 +117,10 @@ fn merge(cache: &mut [u64], line_first: &mut [u64], writes: &[(u32, u64)]) {
     }
 }
 
+/// The least transmittance the piecewise scheme interpolates: optical depths stop at
+/// -ln(1e-30) = 69 (no light at all is 0 either way; no infinite depth meets a zero weight).
+const MIN_TRANSMITTANCE: f32 = 1e-30;
+
 /// One light's pass: traces view rays against the cache.
 struct Tracer<'a> {
     input: &'a IpsviInput<'a>,
@@ -315,11 +319,15 @@ impl Tracer<'_> {
     }
 
     /// Piecewise integration: the light's transmittance on each of the four cache rays around
-    /// the sample at its travel, bilinearly weighted. On a cache ray it continues from the
-    /// furthest entry behind the sample (this view ray's own or the cache's), integrating the
-    /// extinction along that ray; from the box without one. Each such value is exact for its
-    /// ray (up to the midpoint steps), so the only approximation is the interpolation between
-    /// rays a pixel apart.
+    /// the sample at its travel. On a cache ray it continues from the furthest entry behind the
+    /// sample (this view ray's own or the cache's), integrating the extinction along that ray;
+    /// from the box without one. Each such value is exact for its ray (up to the midpoint
+    /// steps), so the only approximation is the interpolation between rays a texel apart, done
+    /// on their optical depths: where the light crosses much matter (a backlit body), the
+    /// transmittance varies exponentially across a texel and interpolating it errs bright
+    /// (+75 % on the backlit CT phantom at 32^2, tests/stability.rs; optical depth: -20 %, and
+    /// tests/ipsvi.rs's backlit case fell from 0.11 to 0.05), while where little is crossed
+    /// the two agree.
     #[inline]
     fn light_piecewise(
         &self,
@@ -329,7 +337,7 @@ impl Tracer<'_> {
         writes: &mut Vec<(u32, u64)>,
     ) -> f32 {
         held.release(&place.corners, writes);
-        let mut light = 0.0;
+        let mut depth = 0.0;
         for (&texel, &weight) in place.corners.iter().zip(&place.weights) {
             // A corner of no weight is not needed (corners repeat only at the cache's edges,
             // where the repeats weigh nothing).
@@ -350,14 +358,14 @@ impl Tracer<'_> {
                 0.0
             };
             let t = t0 * (-tau).exp();
-            light += weight * t;
+            depth += weight * -t.max(MIN_TRANSMITTANCE).ln();
             let entry = Entry { s: place.s, t };
             // Written: the entry nearest the light, where every later sample can start.
             held.hold(texel, entry, |w| {
                 w.map_or(entry.pack(), |w| w.min(entry.pack()))
             });
         }
-        light
+        (-depth).exp()
     }
 
     /// The paper's basic scheme: the light read from the nearest cache ray (this view ray's own
