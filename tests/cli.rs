@@ -918,18 +918,17 @@ fn chart_measures_every_registered_method_and_writes_tables_and_figures() {
     let (width, height) = occlux::eval::chart::plot::figure_size(2);
     assert_eq!((info.info().width, info.info().height), (width, height));
     // Bad input is named.
-    let bad = occlux(&[
-        "chart",
-        "--scenes",
-        demo,
-        "--mc-spp",
-        "0",
-        "-o",
-        out.to_str().unwrap(),
-    ]);
-    let stderr = String::from_utf8_lossy(&bad.stderr);
-    assert!(
-        !bad.status.success() && stderr.contains("--mc-spp"),
-        "{stderr}"
-    );
+    for (flag, value) in [("--mc-spp", "1"), ("--cycles-spp", "0")] {
+        let bad = occlux(&[
+            "chart",
+            "--scenes",
+            demo,
+            flag,
+            value,
+            "-o",
+            out.to_str().unwrap(),
+        ]);
+        let stderr = String::from_utf8_lossy(&bad.stderr);
+        assert!(!bad.status.success() && stderr.contains(flag), "{stderr}");
+    }
 }

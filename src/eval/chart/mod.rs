@@ -84,10 +84,17 @@ pub fn run(args: &ChartArgs, quiet: bool) -> Result<()> {
             ),
         ));
     }
-    if args.mc_spp.iter().chain(&args.cycles_spp).any(|&s| s == 0) || args.spp == 0 {
+    // Occlux's Monte Carlo states its own noise, so it takes two samples at least.
+    if args.spp < 2 || args.mc_spp.iter().any(|&s| s < 2) {
         return Err(Error::param(
-            "--spp/--mc-spp/--cycles-spp",
-            "sample counts must be at least 1",
+            "--spp/--mc-spp",
+            "Occlux's Monte Carlo takes at least 2 samples per pixel",
+        ));
+    }
+    if args.cycles_spp.contains(&0) {
+        return Err(Error::param(
+            "--cycles-spp",
+            "Cycles takes at least 1 sample per pixel",
         ));
     }
     let (compute, notice) = Compute::resolve(args.device)?;
