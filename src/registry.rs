@@ -177,6 +177,19 @@ impl MethodSpec {
         Method::from_table(table)
     }
 
+    /// The lights of `lighting` that the method renders (the background kept).
+    pub fn lights_of(&self, lighting: &Lighting) -> Lighting {
+        Lighting {
+            lights: lighting
+                .lights
+                .iter()
+                .filter(|l| self.lights.contains(&l.kind()))
+                .copied()
+                .collect(),
+            background: lighting.background,
+        }
+    }
+
     /// Refuses lights the method does not render, naming the first such light.
     pub fn check_lights(&self, lighting: &Lighting) -> Result<()> {
         match lighting

@@ -7,7 +7,6 @@
 
 use crate::error::{Error, Result};
 use crate::gpu::{Compute, DeviceChoice};
-use crate::lights::Lighting;
 use crate::progress::NoProgress;
 use crate::registry::{Method, RenderMethod};
 use crate::render::dos::{self, DosInput, DosParams};
@@ -95,20 +94,6 @@ fn cases() -> Vec<(String, Method)> {
         Method::HalfAngle(HalfAngleParams::default()),
     ));
     cases
-}
-
-/// The scene's lights of the kinds `method` renders.
-fn lit_for(method: &Method, lighting: &Lighting) -> Lighting {
-    let kinds = method.spec().lights;
-    Lighting {
-        lights: lighting
-            .lights
-            .iter()
-            .filter(|l| kinds.contains(&l.kind()))
-            .copied()
-            .collect(),
-        background: lighting.background,
-    }
 }
 
 /// What every case renders: the volume, its table, the camera at the size timed, the lights.
@@ -221,7 +206,7 @@ pub fn run(args: &BenchArgs, quiet: bool) -> Result<()> {
             camera.height = size;
             let mut times: Vec<(String, Method, Timing)> = vec![];
             for (label, method) in cases() {
-                let lighting = lit_for(&method, &scene.lighting);
+                let lighting = method.spec().lights_of(&scene.lighting);
                 let view = View {
                     volume: &volume,
                     classification: &scene.classification,

@@ -12,7 +12,6 @@ use crate::eval::dos_accuracy::seeded_reference_image;
 use crate::eval::sweep_accuracy::design_error;
 use crate::export::exr::read_exr;
 use crate::gpu::Compute;
-use crate::lights::Lighting;
 use crate::progress::NoProgress;
 use crate::registry::{Method, METHODS};
 use crate::render::reference::{self, Estimator};
@@ -257,17 +256,7 @@ pub fn panel(path: &Path, light: LightingMode, size: u32, setup: &Setup) -> Resu
 fn methods(truth: &Truth, name: &str, light: LightingMode, setup: &Setup) -> Result<Vec<Point>> {
     let mut points = vec![];
     for spec in METHODS {
-        let lit = Lighting {
-            lights: truth
-                .scene
-                .lighting
-                .lights
-                .iter()
-                .filter(|l| spec.lights.contains(&l.kind()))
-                .copied()
-                .collect(),
-            background: truth.scene.lighting.background,
-        };
+        let lit = spec.lights_of(&truth.scene.lighting);
         if lit.lights.is_empty() {
             continue;
         }
