@@ -20,8 +20,8 @@ const BACKGROUND_DEPTH: f32 = 1.0e10;
 // Stands for the CPU's infinite lengths (no anchor, a sun's distance): longer than any path
 // through a box, so every min it enters picks the other operand as the CPU's infinity does.
 const FAR: f32 = 3.0e38;
-// cpu::MIN_TRANSMITTANCE: the least transmittance whose optical depth is interpolated.
-const MIN_TRANSMITTANCE: f32 = 1e-30;
+// cpu::DARK_DEPTH: the optical depth taken as no light at all (exp(-69) = 1e-30).
+const DARK_DEPTH: f32 = 69.0;
 // f32::MIN_POSITIVE.
 const MIN_POSITIVE: f32 = 1.17549435e-38;
 // std::f32::consts::FRAC_1_PI.
@@ -104,13 +104,13 @@ struct Place {
     s: f32,
 };
 
-// A cache ray the view ray holds (cpu::Held): its latest entry there (s, t), unpacked, and
+// A cache ray the view ray holds (cpu::Held): its latest entry there (s, tau), unpacked, and
 // the entry it will write when it moves away.
 struct Held {
     used: bool,
     texel: u32,
     s: f32,
-    t: f32,
+    tau: f32,
     write: vec2<u32>,
 };
 
@@ -311,10 +311,10 @@ fn find_held(held: ptr<function, array<Held, 4>>, texel: u32) -> i32 {
 }
 
 // Starts holding `texel` in the first free slot (HeldRays::hold of a new ray).
-fn hold_new(held: ptr<function, array<Held, 4>>, texel: u32, s: f32, t: f32, write: vec2<u32>) {
+fn hold_new(held: ptr<function, array<Held, 4>>, texel: u32, s: f32, tau: f32, write: vec2<u32>) {
     for (var i = 0; i < 4; i = i + 1) {
         if (!(*held)[i].used) {
-            (*held)[i] = Held(true, texel, s, t, write);
+            (*held)[i] = Held(true, texel, s, tau, write);
             return;
         }
     }
@@ -332,9 +332,9 @@ fn release(held: ptr<function, array<Held, 4>>, keep: vec4<u32>, keep_any: bool)
     }
 }
 
-// Tracer::light_piecewise: per cache ray around the sample, the light continued from the
-// furthest entry behind it (the ray's own or the cache's) along that cache ray; their optical
-// depths bilinearly weighted.
+// Tracer::light_piecewise: per cache ray around the sample, the depth continued from the
+// furthest entry behind it (the ray's own or the cache's) along that cache ray; the four
+// depths bilinearly weighted. Returns the depth of the sample's light.
 fn light_piecewise(place: Place, held: ptr<function, array<Held, 4>>) -> f32 {
     release(held, place.corners, true);
     var depth = 0.0;
@@ -349,7 +349,7 @@ fn light_piecewise(place: Place, held: ptr<function, array<Held, 4>>) -> f32 {
         var anchor = vec2<f32>(0.0);
         if (own >= 0 && (*held)[own].s <= place.s) {
             found = true;
-            anchor = vec2<f32>((*held)[own].s, (*held)[own].t);
+            anchor = vec2<f32>((*held)[own].s, (*held)[own].tau);
         }
         let read = cache[texel];
         if (!is_empty(read)) {
@@ -359,37 +359,37 @@ fn light_piecewise(place: Place, held: ptr<function, array<Held, 4>>) -> f32 {
                 anchor = e;
             }
         }
-        var t0 = 1.0;
+        var start = 0.0;
         var limit = FAR;
         if (found) {
-            t0 = anchor.y;
+            start = anchor.y;
             limit = place.s - anchor.x;
         }
-        var tau = 0.0;
-        if (t0 > 0.0) {
-            tau = optical_depth(ray_point(texel, place.s), limit);
+        // Behind an entry already dark, nothing is left to integrate.
+        var tau = DARK_DEPTH;
+        if (start < DARK_DEPTH) {
+            tau = min(start + optical_depth(ray_point(texel, place.s), limit), DARK_DEPTH);
         }
-        let t = t0 * exp(-tau);
-        depth = depth + weight * -log(max(t, MIN_TRANSMITTANCE));
+        depth = depth + weight * tau;
         // Written: the entry nearest the light, where every later sample can start.
-        let entry = pack_entry(place.s, t);
+        let entry = pack_entry(place.s, tau);
         if (own >= 0) {
             (*held)[own].s = place.s;
-            (*held)[own].t = t;
+            (*held)[own].tau = tau;
             if (entry_less(entry, (*held)[own].write)) {
                 (*held)[own].write = entry;
             }
         } else {
-            hold_new(held, texel, place.s, t, entry);
+            hold_new(held, texel, place.s, tau, entry);
         }
     }
-    return exp(-depth);
+    return depth;
 }
 
-// Tracer::light_basic: the light read from the nearest cache ray (this view ray's own entry
-// while it stays there); what the sample lets through is passed on, written where the run of
-// samples on that cache ray began.
-fn light_basic(place: Place, alpha: f32, held: ptr<function, array<Held, 4>>) -> f32 {
+// Tracer::light_basic: the light's depth read from the nearest cache ray (this view ray's own
+// entry while it stays there); what the sample lets through (its depth along the view ray
+// added) is passed on, written where the run of samples on that cache ray began.
+fn light_basic(place: Place, view_depth: f32, held: ptr<function, array<Held, 4>>) -> f32 {
     // The last of the heaviest corners, as Iterator::max_by.
     var best = 0u;
     for (var i = 1u; i < 4u; i = i + 1u) {
@@ -400,22 +400,22 @@ fn light_basic(place: Place, alpha: f32, held: ptr<function, array<Held, 4>>) ->
     let nearest = place.corners[best];
     release(held, vec4<u32>(nearest), true);
     let own = find_held(held, nearest);
-    var t = 1.0;
+    var tau = 0.0;
     if (own >= 0) {
-        t = (*held)[own].t;
+        tau = (*held)[own].tau;
     } else if (!is_empty(cache[nearest])) {
-        t = unpack_entry(cache[nearest]).y;
+        tau = unpack_entry(cache[nearest]).y;
     }
-    let through = t * (1.0 - alpha);
+    let through = min(tau + view_depth, DARK_DEPTH);
     if (own >= 0) {
         let start = min(unpack_entry((*held)[own].write).x, place.s);
         (*held)[own].s = place.s;
-        (*held)[own].t = through;
+        (*held)[own].tau = through;
         (*held)[own].write = pack_entry(start, through);
     } else {
         hold_new(held, nearest, place.s, through, pack_entry(place.s, through));
     }
-    return t;
+    return tau;
 }
 
 // Unit direction towards the light (xyz) and the irradiance it delivers at p (lights::incident).
@@ -542,19 +542,19 @@ fn trace(xy: vec2<u32>) -> PixelOut {
         }
         let alpha = 1.0 - exp(-o.sigma_t * dt);
         let place = place_of(x);
-        var light_t: f32;
+        var light_depth: f32;
         if (params.piecewise == 1u) {
-            light_t = light_piecewise(place, &held);
+            light_depth = light_piecewise(place, &held);
         } else {
-            light_t = light_basic(place, alpha, &held);
+            light_depth = light_basic(place, o.sigma_t * dt, &held);
         }
+        let light_t = exp(-light_depth);
         var to_light: vec3<f32>;
         let e = incident(x, &to_light);
         // Light travels along -to_light and leaves along -dir: cos = to_light . dir.
         var per_irradiance = vec3<f32>(henyey_greenstein(params.g, dot(to_light, ray.dir)) * light_t);
         if (params.multiple == 1u) {
-            // As the CPU twin: no infinite depth where the light is gone.
-            let tau = -log(max(light_t, 1e-30));
+            let tau = light_depth;
             // The slab's far face: where the light ray leaves the box, from the chords of the
             // cache rays around the sample (summed in the CPU's order).
             var chord = 0.0;

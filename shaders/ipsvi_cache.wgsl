@@ -2,7 +2,7 @@
 // the trace (ipsvi.wgsl) and the merge (ipsvi_merge.wgsl); src/render/ipsvi/gpu.rs binds them.
 //
 // An entry is cache::Entry::pack's u64 as (hi, lo): hi the order-preserving bits of s, lo the
-// bits of t; comparing (hi, lo) lexicographically is the CPU's u64 order, and (0, 0) is EMPTY.
+// bits of tau; comparing (hi, lo) lexicographically is the CPU's u64 order, and (0, 0) is EMPTY.
 //
 // The merge (cpu::merge: per written texel the line's least entry, then the cache keeps the
 // greater of it and its own) without 64-bit atomics, deterministic whatever the threads do:
@@ -47,17 +47,17 @@ fn entry_less(a: vec2<u32>, b: vec2<u32>) -> bool {
     return a.x < b.x || (a.x == b.x && a.y < b.y);
 }
 
-// cache::Entry::pack of (s, t): s's sign-magnitude bits made monotonic as an unsigned integer.
-fn pack_entry(s: f32, t: f32) -> vec2<u32> {
+// cache::Entry::pack of (s, tau): s's sign-magnitude bits made monotonic as an unsigned integer.
+fn pack_entry(s: f32, tau: f32) -> vec2<u32> {
     let bits = bitcast<u32>(s);
     var ordered = bits | 0x80000000u;
     if ((bits >> 31u) == 1u) {
         ordered = ~bits;
     }
-    return vec2<u32>(ordered, bitcast<u32>(max(t, 0.0)));
+    return vec2<u32>(ordered, bitcast<u32>(max(tau, 0.0)));
 }
 
-// (s, t) of a packed entry that is not EMPTY (cache::Entry::unpack).
+// (s, tau) of a packed entry that is not EMPTY (cache::Entry::unpack).
 fn unpack_entry(packed: vec2<u32>) -> vec2<f32> {
     var bits = ~packed.x;
     if ((packed.x >> 31u) == 1u) {

@@ -8,8 +8,9 @@
 //! beside the box). Along a ray, `s` measures how far light has travelled: the distance along
 //! a sun's direction, or from a lamp.
 //!
-//! An entry is the transmittance `T` of the light arriving at a point together with that
-//! point's `s`. Entries pack into one u64 ordered by `s` first and `T` second, so that merging
+//! An entry is the optical depth `tau` the light has crossed to a point (its transmittance is
+//! exp(-tau)) together with that point's `s`. Entries pack into one u64 ordered by `s` first and
+//! `tau` second, so that merging
 //! the writes of one line keeps the furthest entry by `max`, in any order: the result does not
 //! depend on how threads interleave.
 
@@ -313,18 +314,19 @@ impl CacheMap {
     }
 }
 
-/// An entry: the light's transmittance `t` at a point `s` along its ray.
+/// An entry: the optical depth `tau` the light has crossed when it reaches the point `s` along
+/// its ray. Depths, not transmittances, because that is what samples interpolate and add to.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Entry {
     pub s: f32,
-    pub t: f32,
+    pub tau: f32,
 }
 
 /// No entry yet: below every packed entry.
 pub const EMPTY: u64 = 0;
 
 impl Entry {
-    /// Packs into a u64 ordered by `s`, then `t` (both finite; `t` in [0, 1]).
+    /// Packs into a u64 ordered by `s`, then `tau` (both finite; `tau` >= 0).
     #[inline]
     pub fn pack(self) -> u64 {
         // The sign-magnitude float made monotonic as an unsigned integer.
@@ -334,7 +336,7 @@ impl Entry {
         } else {
             bits | 1 << 31
         };
-        ((ordered as u64) << 32) | self.t.max(0.0).to_bits() as u64
+        ((ordered as u64) << 32) | self.tau.max(0.0).to_bits() as u64
     }
 
     /// The entry `packed` holds, None for [`EMPTY`].
@@ -351,7 +353,7 @@ impl Entry {
         };
         Some(Self {
             s: f32::from_bits(bits),
-            t: f32::from_bits(packed as u32),
+            tau: f32::from_bits(packed as u32),
         })
     }
 }
@@ -361,23 +363,23 @@ mod tests {
     use super::*;
 
     #[test]
-    fn packed_entries_order_by_travel_then_transmittance() {
+    fn packed_entries_order_by_travel_then_depth() {
         let entries = [
             (-3.5, 0.2),
             (-3.5, 0.9),
             (-0.0, 1.0),
             (0.0, 0.5),
             (0.25, 0.0),
-            (7.0, 1.0),
+            (7.0, 69.0),
         ]
-        .map(|(s, t)| Entry { s, t });
+        .map(|(s, tau)| Entry { s, tau });
         for pair in entries.windows(2) {
             assert!(pair[0].pack() <= pair[1].pack(), "{pair:?}");
         }
         for e in entries {
             assert!(e.pack() > EMPTY);
             let back = Entry::unpack(e.pack()).unwrap();
-            assert_eq!((back.s.abs(), back.t), (e.s.abs(), e.t));
+            assert_eq!((back.s.abs(), back.tau), (e.s.abs(), e.tau));
         }
         assert_eq!(Entry::unpack(EMPTY), None);
     }

@@ -16,19 +16,20 @@
 //! transmittance of the light from where it enters the volume's box to x.
 //!
 //! How T_l(x) is found:
-//! - `piecewise` (default): each cache entry also holds how far along its ray the light had
-//!   travelled (`s`). A sample at x takes the nearest usable entry behind it, the cache's
-//!   entry for its texel or the last one its own ray wrote there, whichever has the larger
-//!   `s <= s(x)`, and integrates the extinction along its own light ray from x back to that
-//!   point (midpoint rule, steps of `step`), T_l(x) = T_entry * exp(-tau). With no usable entry
-//!   it integrates back to the box. So the light at every sample is the shadow ray's integral,
-//!   cut into pieces shared between lines; the approximation is only that the piece behind an
-//!   entry belongs to a ray up to one texel aside. The order of the sweep, early ray
+//! - `piecewise` (default): a cache entry holds the optical depth the light has crossed and how
+//!   far along its ray it had travelled (`s`). On each of the four cache rays around x, the
+//!   sample takes the nearest usable entry behind it, the cache's entry for that texel or the
+//!   last one its own view ray wrote there, whichever has the larger `s <= s(x)`, and adds the
+//!   extinction integrated along that cache ray from x's travel back to the entry's (midpoint
+//!   rule, steps of `step`); with no usable entry it integrates back to the box. The four
+//!   depths are interpolated bilinearly and T_l(x) = exp(-depth). So the light on every cache
+//!   ray is that ray's shadow integral, cut into pieces shared between lines; the approximation
+//!   is only the interpolation between rays a texel apart. The order of the sweep, early ray
 //!   termination and material outside the image change only how long the pieces are (the
 //!   cost), never which light is found; the same holds when the light lies along the view and
 //!   every ray carries its own light.
-//! - without it (the paper's basic scheme): T_l(x) is the entry's transmittance as read, and a
-//!   sample lets through `T_l (1 - alpha)`, alpha being its opacity along the view ray: the
+//! - without it (the paper's basic scheme): T_l(x) is the nearest entry's transmittance as
+//!   read, and a sample lets through `T_l (1 - alpha)`, alpha being its opacity along the view ray: the
 //!   light is attenuated by the material the view rays happened to cross in its texel, not by
 //!   the light's own path. Cheaper, and wrong where view and light paths differ in length.
 //!
