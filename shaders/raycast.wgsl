@@ -138,14 +138,16 @@ fn in_scattered(o: Optical, p: vec3<f32>, grad: vec3<f32>, dir: vec3<f32>) -> ve
     var specular = vec3<f32>(0.0);
     for (var i = 0u; i < count; i = i + 1u) {
         let e = incident(i, p, &l);
-        diffuse = diffuse + e * (w * max(dot(n, l), 0.0) / PI + (1.0 - w) / (4.0 * PI));
+        let facing = max(dot(n, l), 0.0);
+        diffuse = diffuse + e * (w * facing / PI + (1.0 - w) / (4.0 * PI));
         let hv = l + to_eye;
         var h = vec3<f32>(0.0);
         if (dot(hv, hv) > 0.0) {
             h = normalize(hv);
         }
         let lobe = pow(max(dot(n, h), 0.0), shininess) * (shininess + 8.0) / (8.0 * PI);
-        specular = specular + e * (w * params.specular * lobe);
+        // Times the irradiance's cosine (cpu::in_scattered): no highlight facing away.
+        specular = specular + e * (w * params.specular * lobe * facing);
     }
     return o.albedo * diffuse + specular;
 }

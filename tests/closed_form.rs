@@ -8,7 +8,7 @@ use occlux::classify::{
 };
 use occlux::lights::{Light, Lighting};
 use occlux::progress::NoProgress;
-use occlux::render::raycast::{cpu, RaycastInput, RaycastParams, Shading};
+use occlux::render::raycast::{cpu, GradientShading, RaycastInput, RaycastParams, Shading};
 use occlux::render::RenderImage;
 use occlux::volume::{phantom, Volume};
 
@@ -146,4 +146,60 @@ fn unshaded_radiance_of_a_uniformly_lit_medium() {
             "{got} vs {expected}"
         );
     }
+}
+
+#[test]
+fn a_surface_turned_away_from_the_light_has_no_highlight() {
+    // The slab seen from above (its top face's normal towards the eye, +z) under a sun low
+    // behind it, 10 degrees below the face's plane: the half vector between the sun and the
+    // eye still leans towards the normal (n.h = 0.64), but no light falls on the face, so a
+    // highlight must not appear; with the same sun 10 degrees above the plane it must, by
+    // the closed form of the normalised Blinn-Phong lobe ks (p + 8) / (8 pi) (n.h)^p (n.l).
+    let volume = phantom::slab(48, 0.5).unwrap();
+    let lut = linear_lut(&volume, 40.0, 0.0);
+    let camera = top_camera(1.0, 8);
+    let shade = |elevation_deg: f32, specular: f32| {
+        let e = elevation_deg.to_radians();
+        let lighting = Lighting {
+            lights: vec![Light::Directional {
+                to_light: Vec3::new(e.cos(), 0.0, e.sin()),
+                irradiance: Vec3::ONE,
+            }],
+            background: Vec3::ZERO,
+        };
+        let params = RaycastParams {
+            shading: Shading::Gradient(GradientShading {
+                specular,
+                shininess: 2.0,
+                ..GradientShading::default()
+            }),
+            step: None,
+            ert_threshold: 0.0,
+        };
+        let input = RaycastInput {
+            volume: &volume,
+            lut: &lut,
+            camera: &camera,
+            lighting: &lighting,
+            params: &params,
+            ao: None,
+        };
+        let image = cpu::render(&input, &NoProgress).unwrap();
+        image.rgba.iter().map(|p| p[0]).sum::<f32>() / image.rgba.len() as f32
+    };
+    // Albedo 0: only the highlight is left.
+    let behind = shade(-10.0, 1.0);
+    assert!(behind.abs() < 1e-6, "a highlight from behind: {behind}");
+    let above = shade(10.0, 1.0);
+    let l = Vec3::new(10f32.to_radians().cos(), 0.0, 10f32.to_radians().sin());
+    let h = (l + Vec3::Z).normalize();
+    let closed_form = (2.0 + 8.0) / (8.0 * std::f32::consts::PI) * h.z.powi(2) * l.z;
+    // The face is a ramp one voxel deep whose gradient's normal is +z; its first samples,
+    // where the gradient is still small, blend towards the isotropic phase (which albedo 0
+    // darkens), so the image holds 0.92 of the lobe (measured): within 10 %.
+    assert!(
+        (above - closed_form).abs() < 0.1 * closed_form,
+        "{above} vs {closed_form}"
+    );
+    assert_eq!(shade(10.0, 0.0), 0.0);
 }

@@ -440,3 +440,96 @@ fn a_cancelled_render_stops_without_a_result() {
     // Rows already running finish; no new row starts (2 threads here, 6 rows).
     assert!(stop.0.load(Ordering::Relaxed) < 6);
 }
+
+#[test]
+fn tracking_cell_by_cell_is_unbiased_where_the_majorants_differ() {
+    // The CT phantom: air, soft tissue and bone side by side, so cells' majorants range from
+    // zero to the table's largest. Along rays through it, the mean of ratio tracking's
+    // estimates and the fraction of delta tracking's collisions must match the transmittance
+    // found by fine quadrature, within their noise.
+    use occlux::render::reference::medium::Medium;
+    use rand_pcg::Pcg32;
+    let volume = occlux::volume::phantom::ct(32).unwrap();
+    let mut classification = occlux::classify::presets::preset("ct-bone").unwrap();
+    // Optical depths of order one along the rays, where both estimators are informative.
+    classification.density_scale = 0.1;
+    let lut = classification.bake(&volume);
+    let medium = Medium::tracking(&volume, &lut).unwrap();
+    let (lo, hi) = volume.bounds();
+    let centre = 0.5 * (lo + hi);
+    let mut rng = Pcg32::new(7, 11);
+    let trials = 20_000;
+    let mut depths = vec![];
+    for (k, dir) in [
+        Vec3::new(1.0, 0.2, 0.1),
+        Vec3::new(-0.3, 1.0, 0.4),
+        Vec3::new(0.5, -0.6, -1.0),
+        Vec3::new(1.0, 1.0, 1.0),
+    ]
+    .into_iter()
+    .enumerate()
+    {
+        let dir = dir.normalize();
+        let ray = Ray {
+            origin: centre - 2.0 * dir + 0.05 * k as f32 * Vec3::Y,
+            dir,
+        };
+        let (t0, t1) = occlux::camera::intersect_box(&ray, lo, hi).unwrap();
+        let steps = 20_000;
+        let h = (t1 - t0) / steps as f32;
+        let depth: f64 = (0..steps)
+            .map(|i| medium.sigma_t(ray.origin + (t0 + (i as f32 + 0.5) * h) * dir) as f64)
+            .sum::<f64>()
+            * h as f64;
+        depths.push(depth);
+        let exact = (-depth).exp();
+        let estimates: Vec<f64> = (0..trials)
+            .map(|_| medium.transmittance(&ray, f32::INFINITY, &mut rng) as f64)
+            .collect();
+        let mean = estimates.iter().sum::<f64>() / trials as f64;
+        let variance =
+            estimates.iter().map(|e| (e - mean).powi(2)).sum::<f64>() / (trials - 1) as f64;
+        let stderr = (variance / trials as f64).sqrt();
+        let through = (0..trials)
+            .filter(|_| medium.collide(&ray, f32::INFINITY, &mut rng).is_none())
+            .count() as f64
+            / trials as f64;
+        let binomial = (exact * (1.0 - exact) / trials as f64).sqrt();
+        println!(
+            "optical depth {depth:.3}: T {exact:.4}, ratio tracking {mean:.4} +- {stderr:.4}, \
+             delta tracking {through:.4} +- {binomial:.4}"
+        );
+        assert!(
+            (mean - exact).abs() < 4.0 * stderr + 1e-4,
+            "ratio {mean} vs {exact}"
+        );
+        assert!(
+            (through - exact).abs() < 4.0 * binomial + 1e-4,
+            "delta {through} vs {exact}"
+        );
+    }
+    // The rays cross matter: the check is not of empty space.
+    assert!(depths.iter().all(|&d| d > 0.1), "{depths:?}");
+}
+
+#[test]
+fn extinction_too_large_to_track_is_refused_before_any_sampling() {
+    // 1e9 per world unit across a cube of diagonal 3.5: billions of tracking steps per path.
+    let lut = constant_lut(&cube(), 1e9, ALBEDO);
+    let lighting = lighting(vec![Light::Ambient {
+        radiance: Vec3::ONE,
+    }]);
+    let params = ReferenceParams {
+        estimator: Estimator::Ambient,
+        spp: 4,
+        seed: 1,
+        g: 0.0,
+    };
+    let err = try_run(&cube(), &lut, &lighting, &params, &NoProgress)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        err.contains("classification") && err.contains("density_scale"),
+        "{err}"
+    );
+}

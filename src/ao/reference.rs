@@ -95,7 +95,7 @@ pub fn ao_reference(
     progress: &dyn Progress,
 ) -> Result<AoReference> {
     params.validate()?;
-    let medium = Medium::new(volume, lut);
+    let medium = Medium::tracking(volume, lut)?;
     let [nx, ny, nz] = volume.dims();
     let count = nx * ny * nz;
     let mut openness = vec![0.0f32; count];
@@ -139,7 +139,7 @@ pub fn ao_reference_at(
     voxels: &[[usize; 3]],
 ) -> Result<Vec<(f32, f32)>> {
     params.validate()?;
-    let medium = Medium::new(volume, lut);
+    let medium = Medium::tracking(volume, lut)?;
     let [nx, ny, _] = volume.dims();
     Ok(voxels
         .par_iter()

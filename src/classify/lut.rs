@@ -99,16 +99,32 @@ impl Lut {
     /// Whether any value in [lo, hi] (at any gradient magnitude) can have non-zero extinction
     /// or emission: checks every entry that linear interpolation over that range touches.
     pub fn may_contribute(&self, lo: f32, hi: f32) -> bool {
-        let [vmin, vmax] = self.value_range;
-        let (first, _, _) = Self::coord(lo, vmin, vmax, self.size[0]);
-        let (last0, last1, f) = Self::coord(hi, vmin, vmax, self.size[0]);
-        let last = if f > 0.0 { last1 } else { last0 };
+        let (first, last) = self.entries_between(lo, hi);
         (0..self.size[1]).any(|j| {
             (first..=last).any(|i| {
                 let e = self.entry(i, j);
                 e[0] != 0.0 || e[4] != 0.0 || e[5] != 0.0 || e[6] != 0.0
             })
         })
+    }
+
+    /// The largest extinction of any value in [lo, hi] at any gradient magnitude: the greatest
+    /// entry that linear interpolation over that range touches (a majorant there).
+    pub fn max_sigma_t_between(&self, lo: f32, hi: f32) -> f32 {
+        let (first, last) = self.entries_between(lo, hi);
+        (0..self.size[1])
+            .flat_map(|j| (first..=last).map(move |i| (i, j)))
+            .map(|(i, j)| self.entry(i, j)[0])
+            .fold(0.0, f32::max)
+    }
+
+    /// The first and last entries along the value axis that lookups in [lo, hi] interpolate
+    /// between.
+    fn entries_between(&self, lo: f32, hi: f32) -> (usize, usize) {
+        let [vmin, vmax] = self.value_range;
+        let (first, _, _) = Self::coord(lo, vmin, vmax, self.size[0]);
+        let (last0, last1, f) = Self::coord(hi, vmin, vmax, self.size[0]);
+        (first, if f > 0.0 { last1 } else { last0 })
     }
 
     /// Continuous table coordinate along an axis of `n` entries for `x` in [lo, hi].

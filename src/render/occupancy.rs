@@ -25,31 +25,10 @@ pub struct Occupancy {
 
 impl Occupancy {
     pub fn build(volume: &Volume, lut: &Lut) -> Self {
-        let dims = volume.dims();
-        let cells = dims.map(|n| n.div_ceil(CELL));
-        let range = |c: usize, n: usize| (c * CELL).saturating_sub(1)..((c + 1) * CELL + 2).min(n);
-        let flags = (0..cells[0] * cells[1] * cells[2])
+        let (cells, ranges) = cell_value_ranges(volume, CELL);
+        let flags = ranges
             .into_par_iter()
-            .map(|index| {
-                let (ci, cj, ck) = (
-                    index % cells[0],
-                    (index / cells[0]) % cells[1],
-                    index / (cells[0] * cells[1]),
-                );
-                let (mut lo, mut hi) = (f32::INFINITY, f32::NEG_INFINITY);
-                for k in range(ck, dims[2]) {
-                    for j in range(cj, dims[1]) {
-                        let row = dims[0] * (j + dims[1] * k);
-                        for &v in &volume.values()
-                            [row + range(ci, dims[0]).start..row + range(ci, dims[0]).end]
-                        {
-                            lo = lo.min(v);
-                            hi = hi.max(v);
-                        }
-                    }
-                }
-                u32::from(lut.may_contribute(lo, hi))
-            })
+            .map(|[lo, hi]| u32::from(lut.may_contribute(lo, hi)))
             .collect();
         Self { cells, flags }
     }
@@ -102,6 +81,38 @@ impl Occupancy {
         }
         t
     }
+}
+
+/// The cells of `side^3` voxels along each axis, and per cell (x fastest) the least and greatest
+/// voxel value from one voxel before it to one after it: every value a trilinear sample inside
+/// the cell interpolates between, with a voxel to spare for rounding near its faces.
+pub fn cell_value_ranges(volume: &Volume, side: usize) -> ([usize; 3], Vec<[f32; 2]>) {
+    let dims = volume.dims();
+    let cells = dims.map(|n| n.div_ceil(side));
+    let range = |c: usize, n: usize| (c * side).saturating_sub(1)..((c + 1) * side + 2).min(n);
+    let ranges = (0..cells[0] * cells[1] * cells[2])
+        .into_par_iter()
+        .map(|index| {
+            let (ci, cj, ck) = (
+                index % cells[0],
+                (index / cells[0]) % cells[1],
+                index / (cells[0] * cells[1]),
+            );
+            let (mut lo, mut hi) = (f32::INFINITY, f32::NEG_INFINITY);
+            let columns = range(ci, dims[0]);
+            for k in range(ck, dims[2]) {
+                for j in range(cj, dims[1]) {
+                    let row = dims[0] * (j + dims[1] * k);
+                    for &v in &volume.values()[row + columns.start..row + columns.end] {
+                        lo = lo.min(v);
+                        hi = hi.max(v);
+                    }
+                }
+            }
+            [lo, hi]
+        })
+        .collect();
+    (cells, ranges)
 }
 
 /// A march along a ray in index coordinates (`index_origin + t index_dir`): `steps` steps of

@@ -160,10 +160,14 @@ fn in_scattered(
             let mut diffuse = ambient;
             let mut specular = Vec3::ZERO;
             for (l, e) in lights {
-                diffuse += e * (w * n.dot(l).max(0.0) / PI + (1.0 - w) / (4.0 * PI));
+                let facing = n.dot(l).max(0.0);
+                diffuse += e * (w * facing / PI + (1.0 - w) / (4.0 * PI));
+                // Normalised Blinn-Phong, ks (p + 8) / (8 pi) (n.h)^p, times the irradiance's
+                // cosine as the diffuse term: a surface turned away from the light has no
+                // highlight, though its half vector may still face the eye.
                 let h = (l + to_eye).normalize_or_zero();
                 let lobe = n.dot(h).max(0.0).powf(g.shininess) * (g.shininess + 8.0) / (8.0 * PI);
-                specular += e * (w * g.specular * lobe);
+                specular += e * (w * g.specular * lobe * facing);
             }
             optical.albedo * diffuse + specular
         }

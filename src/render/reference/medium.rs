@@ -1,9 +1,11 @@
 //! The classified volume as a participating medium for Monte Carlo: free-flight sampling by
-//! delta tracking and transmittance by ratio tracking, both unbiased, against one majorant (the
-//! largest extinction in the table).
+//! delta tracking and transmittance by ratio tracking, both unbiased, against per-cell
+//! majorants ([`Majorants`]) walked cell by cell.
 
+use super::majorants::Majorants;
 use crate::camera::{intersect_box, Ray};
 use crate::classify::{Lut, Optical};
+use crate::error::{Error, Result};
 use crate::volume::Volume;
 use glam::Vec3;
 use rand::Rng;
@@ -12,12 +14,18 @@ use rand::Rng;
 /// so the estimate stays unbiased) instead of marching on for ever-smaller contributions.
 const ROULETTE_BELOW: f32 = 0.05;
 
+/// The largest optical depth of the majorants across the volume's box that tracking accepts:
+/// delta and ratio tracking take a step per unit of it along every path, so beyond this one
+/// pixel's paths would take millions of steps (and a free path too short for f32 to add to
+/// the distance travelled would stop the walk).
+pub const MAX_TRACKED_DEPTH: f32 = 1e5;
+
 /// The medium: optical properties anywhere in the volume's box, zero outside.
 pub struct Medium<'a> {
     volume: &'a Volume,
     lut: &'a Lut,
     table_2d: bool,
-    majorant: f32,
+    majorants: Majorants,
     lo: Vec3,
     hi: Vec3,
 }
@@ -29,13 +37,39 @@ pub struct Collision {
 }
 
 impl<'a> Medium<'a> {
+    /// For lookups ([`Medium::optical`], [`Medium::sigma_t`]): tracking works too, against the
+    /// table's largest extinction everywhere.
     pub fn new(volume: &'a Volume, lut: &'a Lut) -> Self {
+        Self::with(volume, lut, Majorants::global(volume, lut))
+    }
+
+    /// For tracking: per-cell majorants, refused when the extinction is too large to track
+    /// (more than [`MAX_TRACKED_DEPTH`] of optical depth across the box).
+    pub fn tracking(volume: &'a Volume, lut: &'a Lut) -> Result<Self> {
+        let (lo, hi) = volume.bounds();
+        let largest = lut.max_sigma_t();
+        let depth = largest * (hi - lo).length();
+        if depth.is_nan() || depth > MAX_TRACKED_DEPTH {
+            return Err(Error::param(
+                "classification",
+                format!(
+                    "extinction up to {largest:e} per world unit is an optical depth of \
+                     {depth:e} across the volume; the Monte Carlo references take a step per \
+                     unit of it and track at most {MAX_TRACKED_DEPTH:e}: lower density_scale \
+                     (no light crosses more than about 50 anyway)"
+                ),
+            ));
+        }
+        Ok(Self::with(volume, lut, Majorants::per_cell(volume, lut)))
+    }
+
+    fn with(volume: &'a Volume, lut: &'a Lut, majorants: Majorants) -> Self {
         let (lo, hi) = volume.bounds();
         Self {
             volume,
             lut,
             table_2d: lut.gradient_max().is_some(),
-            majorant: lut.max_sigma_t(),
+            majorants,
             lo,
             hi,
         }
@@ -83,22 +117,17 @@ impl<'a> Medium<'a> {
     /// its density is T(0, t) sigma_t(t). None: the ray got through.
     pub fn collide(&self, ray: &Ray, t_max: f32, rng: &mut impl Rng) -> Option<Collision> {
         let (t0, t1) = self.clip(ray)?;
-        let t1 = t1.min(t_max);
-        if self.majorant <= 0.0 {
-            return None;
-        }
-        let mut t = t0;
-        loop {
-            t += free_path(self.majorant, rng);
-            if t >= t1 {
-                return None;
-            }
+        let mut collision = None;
+        self.track(ray, t0, t1.min(t_max), rng, |t, majorant, rng| {
             let position = ray.origin + t * ray.dir;
             let optical = self.optical(position);
-            if rng.random::<f32>() * self.majorant < optical.sigma_t {
-                return Some(Collision { position, optical });
+            if rng.random::<f32>() * majorant < optical.sigma_t {
+                collision = Some(Collision { position, optical });
+                return true;
             }
-        }
+            false
+        });
+        collision
     }
 
     /// An unbiased estimate of the transmittance along `ray` up to distance `t_max` (ratio
@@ -107,26 +136,55 @@ impl<'a> Medium<'a> {
         let Some((t0, t1)) = self.clip(ray) else {
             return 1.0;
         };
-        let t1 = t1.min(t_max);
-        if self.majorant <= 0.0 {
-            return 1.0;
-        }
-        let mut t = t0;
         let mut transmittance = 1.0f32;
-        loop {
-            t += free_path(self.majorant, rng);
-            if t >= t1 {
-                return transmittance;
-            }
+        self.track(ray, t0, t1.min(t_max), rng, |t, majorant, rng| {
             let sigma = self.optical(ray.origin + t * ray.dir).sigma_t;
-            transmittance *= 1.0 - sigma / self.majorant;
+            transmittance *= 1.0 - sigma / majorant;
             if transmittance < ROULETTE_BELOW {
                 if rng.random::<f32>() < 0.5 {
-                    return 0.0;
+                    transmittance = 0.0;
+                    return true;
                 }
                 transmittance *= 2.0;
             }
-        }
+            false
+        });
+        transmittance
+    }
+
+    /// The tentative collisions of the majorant medium along `ray` in [t0, t1], in order:
+    /// `event(t, majorant there, rng)` at each, until it returns true. Free paths are drawn in
+    /// the majorants' optical depth (exponential of mean 1) and spent cell by cell, so a path
+    /// costs one logarithm per event, not one per cell crossed.
+    #[inline]
+    fn track<R: Rng>(
+        &self,
+        ray: &Ray,
+        t0: f32,
+        t1: f32,
+        rng: &mut R,
+        mut event: impl FnMut(f32, f32, &mut R) -> bool,
+    ) {
+        let mut left = free_path(1.0, rng);
+        self.majorants.walk(ray, t0, t1, |ta, tb, majorant| {
+            if majorant <= 0.0 {
+                return false;
+            }
+            let mut ta = ta;
+            loop {
+                let span = (tb - ta) * majorant;
+                if left >= span {
+                    left -= span;
+                    return false;
+                }
+                let t = ta + left / majorant;
+                if event(t, majorant, rng) {
+                    return true;
+                }
+                left = free_path(1.0, rng);
+                ta = t;
+            }
+        });
     }
 }
 

@@ -24,6 +24,7 @@
 //! Each pixel draws from its own PCG stream, so images do not depend on thread scheduling.
 
 pub mod command;
+pub mod majorants;
 pub mod medium;
 pub mod phase;
 
@@ -178,7 +179,7 @@ pub fn render(input: &ReferenceInput, progress: &dyn Progress) -> Result<Referen
     let pixels = width * cam.height as usize;
     let mut mean = vec![[0.0f32; 4]; pixels];
     let mut stderr = vec![[0.0f32; 3]; pixels];
-    let medium = Medium::new(input.volume, input.lut);
+    let medium = Medium::tracking(input.volume, input.lut)?;
     let rows_done = AtomicU64::new(0);
     mean.par_chunks_mut(width)
         .zip(stderr.par_chunks_mut(width))
