@@ -119,15 +119,69 @@ impl<'a> Medium<'a> {
         let (t0, t1) = self.clip(ray)?;
         let mut collision = None;
         self.track(ray, t0, t1.min(t_max), rng, |t, majorant, rng| {
-            let position = ray.origin + t * ray.dir;
-            let optical = self.optical(position);
-            if rng.random::<f32>() * majorant < optical.sigma_t {
-                collision = Some(Collision { position, optical });
-                return true;
-            }
-            false
+            self.collision_at(ray, t, majorant, rng)
+                .map(|c| collision = Some(c))
+                .is_some()
         });
         collision
+    }
+
+    /// The cells `ray` crosses up to `t_max` as (ta, tb, majorant), empty ones left out: a ray
+    /// tracked many times (a pixel's camera ray) walks the grid once.
+    pub fn crossings(&self, ray: &Ray, t_max: f32) -> Vec<[f32; 3]> {
+        let mut crossings = Vec::new();
+        if let Some((t0, t1)) = self.clip(ray) {
+            self.majorants
+                .walk(ray, t0, t1.min(t_max), |ta, tb, majorant| {
+                    if majorant > 0.0 {
+                        crossings.push([ta, tb, majorant]);
+                    }
+                    false
+                });
+        }
+        crossings
+    }
+
+    /// [`Medium::collide`] along `ray` through its [`Medium::crossings`]: the same sampling.
+    pub fn collide_through(
+        &self,
+        ray: &Ray,
+        crossings: &[[f32; 3]],
+        rng: &mut impl Rng,
+    ) -> Option<Collision> {
+        let mut left = free_path(1.0, rng);
+        for &[ta, tb, majorant] in crossings {
+            let mut ta = ta;
+            loop {
+                let span = (tb - ta) * majorant;
+                if left >= span {
+                    left -= span;
+                    break;
+                }
+                let t = ta + left / majorant;
+                if let Some(c) = self.collision_at(ray, t, majorant, rng) {
+                    return Some(c);
+                }
+                left = free_path(1.0, rng);
+                ta = t;
+            }
+        }
+        None
+    }
+
+    /// Delta tracking's test at a tentative collision: real with probability sigma_t / majorant.
+    #[inline]
+    fn collision_at(
+        &self,
+        ray: &Ray,
+        t: f32,
+        majorant: f32,
+        rng: &mut impl Rng,
+    ) -> Option<Collision> {
+        let position = ray.origin + t * ray.dir;
+        let optical = self.optical(position);
+        (rng.random::<f32>() * majorant < optical.sigma_t)
+            .then_some(Collision { position, optical })
     }
 
     /// An unbiased estimate of the transmittance along `ray` up to distance `t_max` (ratio

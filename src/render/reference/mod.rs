@@ -221,8 +221,9 @@ fn estimate_pixel(
     let mut sum = glam::DVec3::ZERO;
     let mut sum_sq = glam::DVec3::ZERO;
     let mut hits = 0u32;
+    let crossings = medium.crossings(ray, f32::INFINITY);
     for _ in 0..params.spp {
-        let (radiance, hit) = sample_path(input, medium, ray, ambient, &mut rng);
+        let (radiance, hit) = sample_path(input, medium, ray, &crossings, ambient, &mut rng);
         let r = radiance.as_dvec3();
         sum += r;
         sum_sq += r * r;
@@ -236,15 +237,17 @@ fn estimate_pixel(
     ([m.x, m.y, m.z, hits as f32 / n as f32], se.to_array())
 }
 
-/// One camera path: its radiance, and whether it interacted with the volume.
+/// One camera path along `ray` (whose cells are `crossings`): its radiance, and whether it
+/// interacted with the volume.
 fn sample_path(
     input: &ReferenceInput,
     medium: &Medium,
     ray: &Ray,
+    crossings: &[[f32; 3]],
     ambient: Vec3,
     rng: &mut Pcg32,
 ) -> (Vec3, bool) {
-    let Some(hit) = medium.collide(ray, f32::INFINITY, rng) else {
+    let Some(hit) = medium.collide_through(ray, crossings, rng) else {
         return (input.lighting.background, false);
     };
     let o = hit.optical;
