@@ -7,7 +7,7 @@ use std::path::PathBuf;
 #[derive(Debug, thiserror::Error)]
 pub enum Error {
     /// Reading or writing a file failed at the operating-system level.
-    #[error("{path}: {source}")]
+    #[error("{}: {source}", located(path, source))]
     Io {
         path: PathBuf,
         #[source]
@@ -32,6 +32,17 @@ pub enum Error {
 }
 
 pub type Result<T, E = Error> = std::result::Result<T, E>;
+
+/// The path as given and, when it is relative and was not found, where it was looked for (a
+/// scene's paths are relative to the scene file, the CLI's to the working directory).
+fn located(path: &std::path::Path, source: &std::io::Error) -> String {
+    match std::path::absolute(path) {
+        Ok(full) if source.kind() == std::io::ErrorKind::NotFound && path.is_relative() => {
+            format!("{} (looked for at {})", path.display(), full.display())
+        }
+        _ => path.display().to_string(),
+    }
+}
 
 impl Error {
     pub fn io(path: impl Into<PathBuf>, source: std::io::Error) -> Self {

@@ -123,6 +123,76 @@ fn info_describes_a_real_volume() {
 }
 
 #[test]
+fn info_reports_non_finite_values_and_quantiles_instead_of_refusing() {
+    // 4 x 3 x 2 floats: a NaN at [1, 1, 0], +inf at [3, 2, 1], -inf at [0, 0, 1], an outlier.
+    let dir = tempfile::tempdir().unwrap();
+    let mut values: Vec<f32> = (0..24).map(|v| v as f32).collect();
+    values[5] = f32::NAN;
+    values[23] = f32::INFINITY;
+    values[12] = f32::NEG_INFINITY;
+    values[7] = 5008.0;
+    let path = dir.path().join("bad.nrrd");
+    let mut file = b"NRRD0004\ntype: float\ndimension: 3\nsizes: 4 3 2\nencoding: raw\n\
+                     endian: little\n\n"
+        .to_vec();
+    file.extend(values.iter().flat_map(|v| v.to_le_bytes()));
+    std::fs::write(&path, &file).unwrap();
+    let run = occlux(&["info", path.to_str().unwrap()]);
+    let text = String::from_utf8_lossy(&run.stdout);
+    assert!(
+        run.status.success(),
+        "{}",
+        String::from_utf8_lossy(&run.stderr)
+    );
+    assert!(
+        text.contains("NOT FINITE 3 of 24 voxels (1 NaN, 1 +inf, 1 -inf)"),
+        "{text}"
+    );
+    assert!(
+        text.contains("first at voxel [1, 1, 0], all within voxels [0, 0, 0] .. [3, 2, 1]"),
+        "{text}"
+    );
+    // Over the 21 finite voxels: 0..22 less the three, and the outlier.
+    assert!(text.contains("values    0 .. 5008"), "{text}");
+    assert!(text.contains("quantiles p0.1"), "{text}");
+    // The outlier's bin shows a bar of its own.
+    let last = text.lines().rfind(|l| l.contains('#')).unwrap();
+    assert!(last.contains(" 1 ") && last.ends_with('#'), "{last}");
+    // A render of the same file is refused, naming the first bad voxel.
+    let scene = dir.path().join("scene.toml");
+    std::fs::write(
+        &scene,
+        "[volume]\npath = \"bad.nrrd\"\n[camera]\nposition = [40, -40, 30]\n\
+         target = [1.5, 1, 0.5]\nwidth = 8\nheight = 8\n[[lights]]\ntype = \"ambient\"\n\
+         radiance = 1.0\n",
+    )
+    .unwrap();
+    let out = dir.path().join("out");
+    let run = occlux(&[
+        "render",
+        scene.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+    ]);
+    assert!(!run.status.success());
+    let err = String::from_utf8_lossy(&run.stderr);
+    assert!(err.contains("voxel [1, 1, 0] holds NaN"), "{err}");
+    assert!(!out.exists());
+}
+
+#[test]
+fn a_missing_relative_path_says_where_it_was_looked_for() {
+    let run = occlux(&["info", "no/such/volume.nrrd"]);
+    assert!(!run.status.success());
+    let err = String::from_utf8_lossy(&run.stderr);
+    let full = std::env::current_dir().unwrap().join("no/such/volume.nrrd");
+    assert!(
+        err.contains(&format!("looked for at {}", full.display())),
+        "{err}"
+    );
+}
+
+#[test]
 fn bad_input_fails_with_the_file_named_and_writes_nothing() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("out");

@@ -1,16 +1,142 @@
 //! `occlux info`: what a volume file holds, as a user reads it: format, dims, spacing, bounds,
-//! value range and a histogram.
+//! the NaN and infinite values it holds and where, percentiles of its finite values and a
+//! histogram whose bars are logarithmic in the count, so that a lone outlier voxel shows.
+//!
+//! Bad values do not stop it: the file is read with [`NonFinite::Census`], and the statistics
+//! are over the finite voxels only.
 
-use super::{load_with_info, LoadOptions};
+use super::loaders::NonFiniteVoxels;
+use super::{load_with_info, LoadOptions, NonFinite, Volume};
 use crate::error::Result;
 use std::path::Path;
 
+/// Percentiles `occlux info` prints.
+pub const PERCENTILES: [f64; 6] = [0.1, 1.0, 50.0, 99.0, 99.9, 100.0];
+/// Bins of the printed histogram.
+const BINS: usize = 24;
+/// Bins of the histogram percentiles are read from (each then interpolated linearly).
+const FINE_BINS: usize = 1 << 16;
+
+/// The finite values' statistics.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Statistics {
+    /// Finite voxels.
+    pub count: u64,
+    pub min: f32,
+    pub max: f32,
+    /// The values at [`PERCENTILES`] (the last is the maximum), read from a histogram of
+    /// 65536 bins over [min, max]: within a bin's width, (max - min) / 65536.
+    pub percentiles: Vec<f32>,
+    /// Voxels in each of [`BINS`] equal bins over [min, max].
+    pub histogram: Vec<u64>,
+}
+
+impl Statistics {
+    /// Statistics of `volume`'s values, less the `replaced` voxels the census set to 0.
+    pub fn of(volume: &Volume, replaced: usize) -> Option<Self> {
+        let values = volume.values();
+        // Real zeros: those the census did not put there.
+        let zeros = values.iter().filter(|v| **v == 0.0).count() - replaced;
+        let (mut min, mut max) = (f32::INFINITY, f32::NEG_INFINITY);
+        for &v in values.iter().filter(|v| **v != 0.0) {
+            min = min.min(v);
+            max = max.max(v);
+        }
+        if zeros > 0 {
+            (min, max) = (min.min(0.0), max.max(0.0));
+        }
+        let count = (values.len() - replaced) as u64;
+        if count == 0 {
+            return None;
+        }
+        let fine = histogram(values, min, max, FINE_BINS, replaced);
+        let width = (max - min) as f64 / FINE_BINS as f64;
+        let percentiles = PERCENTILES
+            .iter()
+            .map(|&p| {
+                if p >= 100.0 {
+                    return max;
+                }
+                let rank = p / 100.0 * count as f64;
+                let mut below = 0u64;
+                for (b, &n) in fine.iter().enumerate() {
+                    if (below + n) as f64 >= rank && n > 0 {
+                        let within = (rank - below as f64) / n as f64;
+                        return (min as f64 + (b as f64 + within) * width) as f32;
+                    }
+                    below += n;
+                }
+                max
+            })
+            .collect();
+        Some(Self {
+            count,
+            min,
+            max,
+            percentiles,
+            histogram: histogram(values, min, max, BINS, replaced),
+        })
+    }
+}
+
+/// Counts of `values` in `bins` equal bins over [lo, hi], less `replaced` zeros.
+fn histogram(values: &[f32], lo: f32, hi: f32, bins: usize, replaced: usize) -> Vec<u64> {
+    let scale = if hi > lo {
+        bins as f32 / (hi - lo)
+    } else {
+        0.0
+    };
+    let bin = |v: f32| (((v - lo) * scale).max(0.0) as usize).min(bins - 1);
+    let mut counts = vec![0u64; bins];
+    for &v in values {
+        counts[bin(v)] += 1;
+    }
+    counts[bin(0.0)] -= replaced as u64;
+    counts
+}
+
+/// Where the non-finite voxels lie, as stored in the file: "voxel [i, j, k]" for one, else the
+/// first and the box around them all.
+fn whereabouts(census: &NonFiniteVoxels, dims: [usize; 3]) -> String {
+    let at = |index: usize| {
+        let [nx, ny] = [dims[0].max(1), dims[1].max(1)];
+        [index % nx, (index / nx) % ny, index / (nx * ny)]
+    };
+    let first = at(census.indices[0]);
+    if census.indices.len() == 1 {
+        return format!("voxel {first:?}");
+    }
+    let (mut lo, mut hi) = (first, first);
+    for &index in &census.indices[1..] {
+        let v = at(index);
+        for a in 0..3 {
+            lo[a] = lo[a].min(v[a]);
+            hi[a] = hi[a].max(v[a]);
+        }
+    }
+    format!("first at voxel {first:?}, all within voxels {lo:?} .. {hi:?}")
+}
+
+/// `v` to the decimals that a bin of `width` resolves (percentiles are read within a fine
+/// bin, so further digits say nothing).
+fn to_bin(v: f32, width: f32) -> String {
+    if width.is_nan() || width <= 0.0 {
+        return v.to_string();
+    }
+    let decimals = (-width.log10().floor()).max(0.0) as usize;
+    format!("{v:.decimals$}")
+}
+
 /// Loads `file` and prints its description on standard output.
 pub fn print(file: &Path, options: &LoadOptions) -> Result<()> {
-    let (vol, source) = load_with_info(file, options)?;
+    let options = LoadOptions {
+        non_finite: NonFinite::Census,
+        ..options.clone()
+    };
+    let (vol, source) = load_with_info(file, &options)?;
     let [nx, ny, nz] = vol.dims();
-    let (lo, hi) = vol.value_range();
     let (blo, bhi) = vol.bounds();
+    let voxels = vol.values().len();
     println!("file      {}", file.display());
     println!(
         "format    {} ({}{})",
@@ -18,30 +144,105 @@ pub fn print(file: &Path, options: &LoadOptions) -> Result<()> {
         source.scalar,
         source
             .grid
+            .as_ref()
             .map_or(String::new(), |g| format!(", grid '{g}'"))
     );
     println!(
-        "dims      {nx} x {ny} x {nz} ({} voxels, {:.1} MiB as f32)",
-        vol.values().len(),
-        vol.values().len() as f64 * 4.0 / (1 << 20) as f64
+        "dims      {nx} x {ny} x {nz} ({voxels} voxels, {:.1} MiB as f32)",
+        voxels as f64 * 4.0 / (1 << 20) as f64
     );
     println!("spacing   {}", vol.spacing());
     println!("origin    {}", vol.origin());
     println!("bounds    {blo} .. {bhi}");
-    println!("values    {lo} .. {hi}");
-    println!("histogram (16 bins over the value range, % of voxels)");
-    let hist = vol.histogram(16);
-    let total = vol.values().len() as f64;
-    let width = (hi - lo) / 16.0;
-    for (b, count) in hist.iter().enumerate() {
-        let pct = *count as f64 / total * 100.0;
+    let census = &source.non_finite;
+    let bad = census.indices.len();
+    if bad > 0 {
         println!(
-            "  {:>12.4} .. {:<12.4} {:6.2}% {}",
-            lo + b as f32 * width,
-            lo + (b + 1) as f32 * width,
-            pct,
-            "#".repeat((pct / 2.0).ceil() as usize)
+            "NOT FINITE {bad} of {voxels} voxels ({} NaN, {} +inf, {} -inf), {}; Occlux refuses \
+             the file unless the scene sets volume.replace_non_finite; the statistics below are \
+             of the finite voxels",
+            census.nan,
+            census.positive_infinite,
+            census.negative_infinite,
+            whereabouts(census, vol.dims())
+        );
+    }
+    let Some(stats) = Statistics::of(&vol, bad) else {
+        println!("values    none finite");
+        return Ok(());
+    };
+    println!("values    {} .. {}", stats.min, stats.max);
+    let fine_width = (stats.max - stats.min) / FINE_BINS as f32;
+    let percentiles: Vec<String> = PERCENTILES
+        .iter()
+        .zip(&stats.percentiles)
+        .map(|(p, v)| format!("p{p} {}", to_bin(*v, fine_width)))
+        .collect();
+    println!("quantiles {}", percentiles.join(", "));
+    println!(
+        "histogram ({BINS} bins over the value range; bars grow with log10 of the count, so one \
+         voxel shows)"
+    );
+    let width = (stats.max - stats.min) / BINS as f32;
+    let scale = 40.0 / (stats.count as f64 + 1.0).log10();
+    for (b, &count) in stats.histogram.iter().enumerate() {
+        let bar = ((count as f64 + 1.0).log10() * scale).ceil() as usize;
+        println!(
+            "  {:>12.4} .. {:<12.4} {count:>11} {:7.3}% {}",
+            stats.min + b as f32 * width,
+            stats.min + (b + 1) as f32 * width,
+            count as f64 / stats.count as f64 * 100.0,
+            "#".repeat(bar)
         );
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use glam::Vec3;
+
+    #[test]
+    fn percentiles_and_bins_skip_the_replaced_voxels_and_keep_an_outlier() {
+        // 0..999 once each, one outlier at 5008, and 7 voxels the census set to 0.
+        let mut values: Vec<f32> = (0..1000).map(|v| v as f32 + 1.0).collect();
+        values.push(5008.0);
+        values.extend([0.0; 7]);
+        let volume = Volume::new([1008, 1, 1], Vec3::ONE, Vec3::ZERO, values).unwrap();
+        let stats = Statistics::of(&volume, 7).unwrap();
+        assert_eq!(stats.count, 1001);
+        assert_eq!((stats.min, stats.max), (1.0, 5008.0));
+        // p50 of 1..1000 and 5008 is about 501; p99.9 lies below the outlier.
+        let p = |q: f64| stats.percentiles[PERCENTILES.iter().position(|&x| x == q).unwrap()];
+        assert!((p(50.0) - 501.0).abs() < 1.0, "{}", p(50.0));
+        assert!(p(99.9) < 1001.0, "{}", p(99.9));
+        assert_eq!(stats.histogram.iter().sum::<u64>(), 1001);
+        assert_eq!(*stats.histogram.last().unwrap(), 1, "the outlier's bin");
+    }
+
+    #[test]
+    fn real_zeros_count_and_an_all_bad_volume_has_no_statistics() {
+        let volume =
+            Volume::new([4, 1, 1], Vec3::ONE, Vec3::ZERO, vec![0.0, 0.0, 2.0, 0.0]).unwrap();
+        let stats = Statistics::of(&volume, 1).unwrap();
+        assert_eq!((stats.count, stats.min, stats.max), (3, 0.0, 2.0));
+        assert!(Statistics::of(&volume, 0).is_some());
+        let bad = Volume::new([2, 1, 1], Vec3::ONE, Vec3::ZERO, vec![0.0, 0.0]).unwrap();
+        assert_eq!(Statistics::of(&bad, 2), None);
+    }
+
+    #[test]
+    fn whereabouts_name_the_first_voxel_and_the_box() {
+        let census = NonFiniteVoxels {
+            nan: 2,
+            // [1, 1, 0] and [3, 2, 1] of a 4 x 3 x 2 grid.
+            indices: vec![5, 3 + 4 * 2 + 12],
+            ..Default::default()
+        };
+        assert_eq!(
+            whereabouts(&census, [4, 3, 2]),
+            "first at voxel [1, 1, 0], all within voxels [1, 1, 0] .. [3, 2, 1]"
+        );
+    }
 }

@@ -105,6 +105,19 @@ pub enum NonFinite {
     Reject,
     /// Substitute this value.
     Replace(f32),
+    /// Substitute 0 and say where they were ([`SourceInfo::non_finite`]): what `occlux info`
+    /// reads bad files with.
+    Census,
+}
+
+/// The NaN and infinite values a file held, with [`NonFinite::Census`].
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct NonFiniteVoxels {
+    pub nan: usize,
+    pub positive_infinite: usize,
+    pub negative_infinite: usize,
+    /// Every such voxel's index as stored in the file (x fastest), in file order.
+    pub indices: Vec<usize>,
 }
 
 /// How to read a headerless `.raw` file.
@@ -154,6 +167,8 @@ pub struct SourceInfo {
     pub scalar: String,
     /// The grid read, for formats with several (VDB).
     pub grid: Option<String>,
+    /// The NaN and infinite values found (with [`NonFinite::Census`]; empty otherwise).
+    pub non_finite: NonFiniteVoxels,
 }
 
 const SUPPORTED: &str = ".nrrd, .nhdr, .nii, .nii.gz, .vdb, .raw, .npy";
@@ -440,17 +455,20 @@ fn check_spacing(path: &Path, field: &str, spacing: [f64; 3]) -> Result<Vec3> {
 }
 
 /// The common last step: applies the non-finite policy (voxel indices as stored in the file),
-/// flips the axes the placement asks for, and builds the volume.
+/// flips the axes the placement asks for, and builds the volume; also returns what the census
+/// found (empty unless the policy is [`NonFinite::Census`]).
 fn finish(
     path: &Path,
     dims: [usize; 3],
     placement: Placement,
     mut values: Vec<f32>,
     opts: &LoadOptions,
-) -> Result<Volume> {
-    apply_non_finite(path, dims, &mut values, opts.non_finite)?;
+) -> Result<(Volume, NonFiniteVoxels)> {
+    let census = apply_non_finite(path, dims, &mut values, opts.non_finite)?;
     flip_axes(&mut values, dims, placement.flip);
-    Volume::new(dims, placement.spacing, placement.origin, values).map_err(|e| in_file(path, e))
+    let volume = Volume::new(dims, placement.spacing, placement.origin, values)
+        .map_err(|e| in_file(path, e))?;
+    Ok((volume, census))
 }
 
 fn apply_non_finite(
@@ -458,10 +476,10 @@ fn apply_non_finite(
     dims: [usize; 3],
     values: &mut [f32],
     policy: NonFinite,
-) -> Result<()> {
+) -> Result<NonFiniteVoxels> {
     match policy {
         NonFinite::Reject => match values.par_iter().position_first(|v| !v.is_finite()) {
-            None => Ok(()),
+            None => Ok(NonFiniteVoxels::default()),
             Some(index) => {
                 let [nx, ny] = [dims[0].max(1), dims[1].max(1)];
                 let (i, j, k) = (index % nx, (index / nx) % ny, index / (nx * ny));
@@ -480,7 +498,29 @@ fn apply_non_finite(
                 .par_iter_mut()
                 .filter(|v| !v.is_finite())
                 .for_each(|v| *v = x);
-            Ok(())
+            Ok(NonFiniteVoxels::default())
+        }
+        NonFinite::Census => {
+            let indices: Vec<usize> = values
+                .par_iter()
+                .enumerate()
+                .filter(|(_, v)| !v.is_finite())
+                .map(|(i, _)| i)
+                .collect();
+            let mut census = NonFiniteVoxels::default();
+            for &i in &indices {
+                let v = values[i];
+                if v.is_nan() {
+                    census.nan += 1;
+                } else if v > 0.0 {
+                    census.positive_infinite += 1;
+                } else {
+                    census.negative_infinite += 1;
+                }
+                values[i] = 0.0;
+            }
+            census.indices = indices;
+            Ok(census)
         }
     }
 }

@@ -65,11 +65,12 @@ fn load_from(
     let mut values = decode(&bytes, &layout);
     drop(bytes);
     rescale(&mut values, header.scl_slope, header.scl_inter);
-    let volume = finish(path, dims, placement, values, opts)?;
+    let (volume, non_finite) = finish(path, dims, placement, values, opts)?;
     let info = SourceInfo {
         format: "NIfTI-1",
         scalar: scalar.name().to_string(),
         grid: None,
+        non_finite,
     };
     Ok((volume, info))
 }

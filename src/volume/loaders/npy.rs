@@ -33,7 +33,7 @@ pub(super) fn load(path: &Path, opts: &LoadOptions) -> Result<(Volume, SourceInf
     let bytes = read_payload(path, reader, "array data", &layout)?;
     let values = decode(&bytes, &layout);
     drop(bytes);
-    let volume = finish(
+    let (volume, non_finite) = finish(
         path,
         dims,
         Placement::grid(Vec3::ONE, Vec3::ZERO),
@@ -44,6 +44,7 @@ pub(super) fn load(path: &Path, opts: &LoadOptions) -> Result<(Volume, SourceInf
         format: "npy",
         scalar: scalar.name().to_string(),
         grid: None,
+        non_finite,
     };
     Ok((volume, info))
 }

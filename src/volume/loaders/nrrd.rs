@@ -39,11 +39,12 @@ pub(super) fn load(path: &Path, opts: &LoadOptions) -> Result<(Volume, SourceInf
     };
     let values = decode(&bytes, &header.layout);
     drop(bytes);
-    let volume = finish(path, header.layout.dims, header.placement, values, opts)?;
+    let (volume, non_finite) = finish(path, header.layout.dims, header.placement, values, opts)?;
     let info = SourceInfo {
         format: "NRRD",
         scalar: header.layout.scalar.name().to_string(),
         grid: None,
+        non_finite,
     };
     Ok((volume, info))
 }

@@ -48,7 +48,7 @@ pub(super) fn load(path: &Path, opts: &LoadOptions) -> Result<(Volume, SourceInf
     let bytes = read_payload(path, reader, "raw data", &layout)?;
     let values = decode(&bytes, &layout);
     drop(bytes);
-    let volume = finish(
+    let (volume, non_finite) = finish(
         path,
         spec.dims,
         Placement::grid(spacing, spec.origin),
@@ -59,6 +59,7 @@ pub(super) fn load(path: &Path, opts: &LoadOptions) -> Result<(Volume, SourceInf
         format: "raw",
         scalar: spec.scalar.name().to_string(),
         grid: None,
+        non_finite,
     };
     Ok((volume, info))
 }

@@ -12,7 +12,7 @@
 //! - vdb-rs panics on some malformed or unsupported files rather than returning an error; those
 //!   panics are caught here and reported as format errors naming the file.
 
-use super::{check_spacing, finish, LoadOptions, Placement, SourceInfo};
+use super::{check_spacing, finish, LoadOptions, NonFiniteVoxels, Placement, SourceInfo};
 use crate::error::{Error, Result};
 use crate::volume::{check_budget, Volume};
 use glam::{DVec3, IVec3, Vec3};
@@ -45,11 +45,12 @@ pub(super) fn load(path: &Path, opts: &LoadOptions) -> Result<(Volume, SourceInf
         }
     };
     let half = grid.descriptor.meta_data.is_half_float();
-    let volume = densify(path, &grid, opts)?;
+    let (volume, non_finite) = densify(path, &grid, opts)?;
     let info = SourceInfo {
         format: "OpenVDB",
         scalar: if half { "float16" } else { "float32" }.into(),
         grid: Some(name),
+        non_finite,
     };
     Ok((volume, info))
 }
@@ -132,7 +133,7 @@ fn extent(level: VdbLevel) -> i32 {
 }
 
 /// Fills a dense volume over the bounding box of the active voxels and tiles.
-fn densify(path: &Path, grid: &Grid<f32>, opts: &LoadOptions) -> Result<Volume> {
+fn densify(path: &Path, grid: &Grid<f32>, opts: &LoadOptions) -> Result<(Volume, NonFiniteVoxels)> {
     let (mut lo, mut hi) = (IVec3::MAX, IVec3::MIN);
     for (corner, _, level) in grid.iter() {
         let c = index_of(corner.to_array());
