@@ -33,11 +33,14 @@ pub enum Error {
 
 pub type Result<T, E = Error> = std::result::Result<T, E>;
 
-/// The path as given and, when it is relative and was not found, where it was looked for (a
-/// scene's paths are relative to the scene file, the CLI's to the working directory).
+/// The path as given and, when it is relative and the system found no file there, where it
+/// was looked for (a scene's paths are relative to the scene file, the CLI's to the working
+/// directory). Errors Occlux words itself (no OS error code) say what they mean already.
 fn located(path: &std::path::Path, source: &std::io::Error) -> String {
+    let not_found =
+        source.kind() == std::io::ErrorKind::NotFound && source.raw_os_error().is_some();
     match std::path::absolute(path) {
-        Ok(full) if source.kind() == std::io::ErrorKind::NotFound && path.is_relative() => {
+        Ok(full) if not_found && path.is_relative() => {
             format!("{} (looked for at {})", path.display(), full.display())
         }
         _ => path.display().to_string(),

@@ -2,7 +2,7 @@
 
 use crate::ao::vao::AoVolume;
 use crate::error::{Error, Result};
-use crate::export::atomic::write_bytes_atomic;
+use crate::export::atomic::{check_writable, write_bytes_atomic, OutputSet};
 use crate::export::exr::{render_layers, write_exr, ExrLayer, Precision};
 use crate::export::png::write_png_preview;
 use crate::export::usd::{write_usda, StageDescription};
@@ -39,6 +39,8 @@ pub fn run(
     quiet: bool,
 ) -> Result<()> {
     options.validate()?;
+    // A folder that cannot be written is found before the work, not after it.
+    check_writable(out_dir)?;
     let (compute, notice) = Compute::resolve(device)?;
     if let Some(line) = notice {
         progress::notice(quiet, line);
@@ -135,15 +137,16 @@ pub fn write_render(
     stem: &str,
     options: &OutputOptions,
 ) -> Result<Vec<PathBuf>> {
-    let layers = render_layers(img);
+    let mut set = OutputSet::new(out_dir)?;
     write_image_files(
         img,
-        &layers,
+        &render_layers(img),
         &header_metadata(scene),
-        out_dir,
+        &mut set,
         stem,
         options,
-    )
+    )?;
+    set.commit()
 }
 
 /// Writes a Monte Carlo reference: `OUT/STEM.exr` (float32 layers `beauty`, the per-pixel
@@ -177,39 +180,42 @@ pub fn write_reference(
         precision: Precision::Float,
         exposure,
     };
+    let mut set = OutputSet::new(out_dir)?;
     write_image_files(
         &image.to_render(),
         &image.layers(),
         &meta,
-        out_dir,
+        &mut set,
         stem,
         &options,
-    )
+    )?;
+    set.commit()
 }
 
-/// `OUT/STEM.exr` holding `layers` with `meta` in its header, and the PNG preview of `preview`.
+/// `STEM.exr` holding `layers` with `meta` in its header, and the PNG preview of `preview`, as
+/// part of `set`.
 fn write_image_files(
     preview: &RenderImage,
     layers: &[ExrLayer],
     meta: &BTreeMap<String, String>,
-    out_dir: &Path,
+    set: &mut OutputSet,
     stem: &str,
     options: &OutputOptions,
-) -> Result<Vec<PathBuf>> {
+) -> Result<()> {
     options.validate()?;
-    std::fs::create_dir_all(out_dir).map_err(|e| Error::io(out_dir, e))?;
-    let exr_path = out_dir.join(format!("{stem}.exr"));
-    let png_path = out_dir.join(format!("{stem}.png"));
     write_exr(
-        &exr_path,
+        &set.path(&format!("{stem}.exr"))?,
         preview.width,
         preview.height,
         layers,
         meta,
         options.precision,
     )?;
-    write_png_preview(&png_path, preview, options.exposure)?;
-    Ok(vec![exr_path, png_path])
+    write_png_preview(
+        &set.path(&format!("{stem}.png"))?,
+        preview,
+        options.exposure,
+    )
 }
 
 /// The grids `export` writes for every method: extinction per scene unit, and the volume's
@@ -250,16 +256,15 @@ pub fn export(
         &scene.camera,
         &scene.lighting.lights,
     )?;
-    // The grids go first: an empty or invalid grid is the likeliest failure, and it stops the
-    // export before anything is written.
-    std::fs::create_dir_all(out_dir).map_err(|e| Error::io(out_dir, e))?;
-    let vdb_path = out_dir.join(&vdb_name);
-    write_vdb(&vdb_path, &grids, vdb)?;
-    let usd_path = out_dir.join(format!("{stem}.usda"));
-    write_usda(&usd_path, &stage)?;
-    let mut written = write_render(&rendered.image, scene, out_dir, stem, output)?;
-    written.extend([vdb_path, usd_path]);
-    Ok(written)
+    // All four files or none: the stage points at the grids, and a stage without its images
+    // (or grids without their stage) would be a half export.
+    let mut set = OutputSet::new(out_dir)?;
+    write_vdb(&set.path(&vdb_name)?, &grids, vdb)?;
+    write_usda(&set.path(&format!("{stem}.usda"))?, &stage)?;
+    let image = &rendered.image;
+    let meta = header_metadata(scene);
+    write_image_files(image, &render_layers(image), &meta, &mut set, stem, output)?;
+    set.commit()
 }
 
 /// The VDB grid of a volume Occlux computed, by its name: the signed distance (`sdf`) is a
@@ -298,16 +303,14 @@ pub fn write_ao(
     stem: &str,
     vdb: &VdbOptions,
 ) -> Result<Vec<PathBuf>> {
-    std::fs::create_dir_all(out_dir).map_err(|e| Error::io(out_dir, e))?;
-    let vdb_path = out_dir.join(format!("{stem}-ao.vdb"));
-    write_vdb(&vdb_path, &ao_grids(ao), vdb)?;
-    let png_path = out_dir.join(format!("{stem}-ao.png"));
-    write_png_preview(&png_path, &middle_slice(&ao.openness), 1.0)?;
-    let json_path = out_dir.join(format!("{stem}-ao.json"));
+    let mut set = OutputSet::new(out_dir)?;
+    write_vdb(&set.path(&format!("{stem}-ao.vdb"))?, &ao_grids(ao), vdb)?;
+    let png = set.path(&format!("{stem}-ao.png"))?;
+    write_png_preview(&png, &middle_slice(&ao.openness), 1.0)?;
     let text =
         serde_json::to_string_pretty(record).map_err(|e| Error::param("json", e.to_string()))?;
-    write_bytes_atomic(&json_path, text.as_bytes())?;
-    Ok(vec![vdb_path, png_path, json_path])
+    write_bytes_atomic(&set.path(&format!("{stem}-ao.json"))?, text.as_bytes())?;
+    set.commit()
 }
 
 /// The middle z slice of `volume` as a grey image, row 0 at the largest y.

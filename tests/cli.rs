@@ -1002,3 +1002,76 @@ fn chart_measures_every_registered_method_and_writes_tables_and_figures() {
         assert!(!bad.status.success() && stderr.contains(flag), "{stderr}");
     }
 }
+
+#[test]
+fn an_export_lands_whole_or_leaves_the_folder_as_it_was() {
+    // A folder where the stage should go: the export fails, naming it, and writes none of its
+    // files (the VDB would come first); an earlier export's files keep their content.
+    let out = tempfile::tempdir().unwrap();
+    let scene_path = small_scene(out.path());
+    let stem = scene_path.file_stem().unwrap().to_str().unwrap().to_owned();
+    let dir = out.path().join("export");
+    let export = |dir: &Path| {
+        occlux(&[
+            "export",
+            scene_path.to_str().unwrap(),
+            "--device",
+            "cpu",
+            "-o",
+            dir.to_str().unwrap(),
+        ])
+    };
+    std::fs::create_dir_all(dir.join(format!("{stem}.usda"))).unwrap();
+    let run = export(&dir);
+    let stderr = String::from_utf8_lossy(&run.stderr);
+    assert!(!run.status.success());
+    assert!(stderr.contains(&format!("{stem}.usda")), "{stderr}");
+    let mut left: Vec<String> = std::fs::read_dir(&dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    left.sort();
+    assert_eq!(left, vec![format!("{stem}.usda")], "a half export");
+    // A whole export, then one that fails: the first one's files stay as they were.
+    std::fs::remove_dir(dir.join(format!("{stem}.usda"))).unwrap();
+    assert!(export(&dir).status.success());
+    let vdb = std::fs::read(dir.join(format!("{stem}.vdb"))).unwrap();
+    std::fs::remove_file(dir.join(format!("{stem}.png"))).unwrap();
+    std::fs::create_dir(dir.join(format!("{stem}.png"))).unwrap();
+    assert!(!export(&dir).status.success());
+    assert_eq!(std::fs::read(dir.join(format!("{stem}.vdb"))).unwrap(), vdb);
+    assert_eq!(
+        std::fs::read_dir(&dir).unwrap().count(),
+        4,
+        "exr, png folder, usda, vdb"
+    );
+}
+
+#[test]
+fn a_folder_that_cannot_be_made_is_refused_before_rendering() {
+    let out = tempfile::tempdir().unwrap();
+    let scene_path = small_scene(out.path());
+    let blocked = out.path().join("blocked");
+    std::fs::write(&blocked, b"a file").unwrap();
+    for command in ["render", "export"] {
+        let run = occlux(&[
+            command,
+            scene_path.to_str().unwrap(),
+            "--device",
+            "cpu",
+            "-o",
+            blocked.join("out").to_str().unwrap(),
+        ]);
+        let stderr = String::from_utf8_lossy(&run.stderr);
+        assert!(
+            !run.status.success() && stderr.contains("blocked"),
+            "{stderr}"
+        );
+        // Refused before the volume was loaded: nothing was said of loading or rendering.
+        let stdout = String::from_utf8_lossy(&run.stdout);
+        assert!(
+            !stdout.contains("loaded") && !stdout.contains("rendered"),
+            "{stdout}"
+        );
+    }
+}

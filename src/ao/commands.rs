@@ -4,6 +4,7 @@
 use super::reference::{ao_reference, AoReferenceParams, AoVariant};
 use super::{AoMethod, AoVolumeParams};
 use crate::error::{Error, Result};
+use crate::export::atomic::check_writable;
 use crate::export::vdb::{write_vdb, VdbGrid, VdbOptions};
 use crate::gpu::{Compute, DeviceChoice};
 use crate::pipeline::{stem, write_ao};
@@ -24,6 +25,8 @@ pub fn ao_volume(
 ) -> Result<()> {
     params.validate()?;
     let parsed = Scene::from_file(scene)?;
+    // A folder that cannot be written is found before the work, not after it.
+    check_writable(out)?;
     let (compute, device_notice) = Compute::resolve(device)?;
     if let Some(line) = device_notice {
         notice(quiet, line);

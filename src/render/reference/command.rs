@@ -3,6 +3,7 @@
 
 use super::{render, ReferenceInput, ReferenceParams};
 use crate::error::Result;
+use crate::export::atomic::check_writable;
 use crate::pipeline::write_reference;
 use crate::progress::{report_written, say, Bar};
 use crate::scene::Scene;
@@ -20,6 +21,8 @@ pub fn run(
 ) -> Result<()> {
     params.validate()?;
     let scene = Scene::from_file(scene_path)?;
+    // A folder that cannot be written is found before the work, not after it.
+    check_writable(out)?;
     let volume = scene.load_volume()?;
     let lut = scene.classification.bake(&volume);
     let bar = Bar::new(quiet, scene.camera.height as u64, "sampling");
