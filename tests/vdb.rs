@@ -228,16 +228,6 @@ fn the_writer_refuses_bad_grids_and_leaves_nothing() {
         "{err}"
     );
 
-    let empty = Volume::new([4, 4, 4], Vec3::ONE, Vec3::ZERO, vec![0.0; 64]).unwrap();
-    let err = write_vdb(
-        &path,
-        &[VdbGrid::from_volume("density", &empty)],
-        &VdbOptions::default(),
-    )
-    .unwrap_err()
-    .to_string();
-    assert!(err.contains("'density'") && err.contains("empty"), "{err}");
-
     let huge: &'static [f32] = &[1.0, 7e4, 1.0, 1.0, 1.0, 1.0, 1.0, 1.0];
     let half = VdbOptions {
         half: true,
@@ -253,4 +243,36 @@ fn the_writer_refuses_bad_grids_and_leaves_nothing() {
     write_vdb(&path, &[grid("h", huge)], &VdbOptions::default()).expect("float32 holds 7e4");
     std::fs::remove_file(&path).unwrap();
     assert!(std::fs::read_dir(dir.path()).unwrap().next().is_none());
+}
+
+#[test]
+fn empty_grids_are_written_as_valid_grids_without_voxels() {
+    // An all-transparent classification's density, or a constant variance: every voxel equals
+    // the background. OpenVDB writes such a grid as a root without children and an inverted
+    // bounding box; so does Occlux, beside a grid that holds voxels, in every storage option.
+    let dir = tempfile::tempdir().unwrap();
+    let empty = Volume::new([4, 4, 4], Vec3::splat(0.5), Vec3::ONE, vec![0.0; 64]).unwrap();
+    let full = ball([150, 30, 20], Vec3::ONE, Vec3::ZERO);
+    for options in all_options() {
+        let path = dir.path().join("empty.vdb");
+        write_vdb(
+            &path,
+            &[
+                VdbGrid::from_volume("ao_variance", &empty),
+                VdbGrid::from_volume("density", &full),
+            ],
+            &options,
+        )
+        .unwrap();
+        let (voxels, scale, translation) = read_with_vdb_rs(&path, "ao_variance");
+        assert!(voxels.is_empty(), "{options:?}: {} voxels", voxels.len());
+        assert_eq!(
+            (scale, translation),
+            ([0.5; 3], [1.0; 3]),
+            "{options:?}: {scale:?} {translation:?}"
+        );
+        // The grid after it is intact.
+        let (voxels, _, _) = read_with_vdb_rs(&path, "density");
+        assert!(!voxels.is_empty(), "{options:?}");
+    }
 }

@@ -166,15 +166,6 @@ impl<'a> VdbGrid<'a> {
                 ));
             }
         }
-        if self.values.iter().all(|&v| v == self.background) {
-            return Err(Error::param(
-                key,
-                format!(
-                    "the grid is empty: every voxel equals the background {}",
-                    self.background
-                ),
-            ));
-        }
         Ok(())
     }
 

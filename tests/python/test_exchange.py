@@ -300,15 +300,23 @@ def test_export_failures_leave_no_files(blob, tmp_path):
     )
     assert result.returncode != 0
     assert "file" in result.stderr and "error" in result.stderr
+    assert blocked.read_text() == "not a folder"
+
+
+def test_an_all_transparent_classification_exports_an_empty_density_grid(blob, tmp_path, openvdb):
+    # Every voxel's extinction is 0: the density grid holds no active voxel, which OpenVDB
+    # reads as a valid, empty fog volume beside the value grid.
+    scene, values = blob
     empty = tmp_path / "empty.toml"
     text = scene.read_text().replace("sigma_t = 30", "sigma_t = 0")
     empty.write_text(text.replace("blob.nrrd", str(scene.parent / "blob.nrrd")))
-    out = tmp_path / "out"
-    result = subprocess.run(
-        [str(occlux_binary()), "export", str(empty), "-o", str(out), "--quiet"],
-        capture_output=True,
-        text=True,
+    files = export(empty, tmp_path / "out")
+    grids, _ = openvdb.readAll(str(files[".vdb"]))
+    by_name = {g.name: g for g in grids}
+    assert sorted(by_name) == ["density", "value"]
+    assert by_name["density"].activeVoxelCount() == 0
+    assert by_name["density"].gridClass == "fog volume"
+    np.testing.assert_allclose(
+        by_name["density"].transform.voxelSize(), expected_placement()[0], rtol=1e-6
     )
-    assert result.returncode != 0
-    assert "'density'" in result.stderr and "empty" in result.stderr, result.stderr
-    assert not out.exists() or not list(out.iterdir()), "nothing is written"
+    assert by_name["value"].activeVoxelCount() == np.count_nonzero(values)
