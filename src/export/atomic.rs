@@ -9,6 +9,11 @@ use std::fs::File;
 use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};
 
+/// An error about `path` that Occlux found itself, before the system was asked.
+fn refusal(path: &Path, kind: std::io::ErrorKind, message: String) -> Error {
+    Error::io(path, std::io::Error::new(kind, message))
+}
+
 /// Fails, naming `out_dir`, when files cannot be made there: what callers check before they
 /// compute. Leaves nothing behind: a folder that does not exist yet is not made, its nearest
 /// existing ancestor is tried instead.
@@ -24,12 +29,10 @@ pub fn check_writable(out_dir: &Path) -> Result<()> {
         }
     }
     if !existing.is_dir() {
-        return Err(Error::io(
+        return Err(refusal(
             out_dir,
-            std::io::Error::new(
-                std::io::ErrorKind::NotADirectory,
-                format!("{} is a file, not a folder", existing.display()),
-            ),
+            std::io::ErrorKind::NotADirectory,
+            format!("{} is a file, not a folder", existing.display()),
         ));
     }
     tempfile::Builder::new()
@@ -71,12 +74,10 @@ impl OutputSet {
     pub fn path(&mut self, name: &str) -> Result<PathBuf> {
         let destination = self.out_dir.join(name);
         if destination.is_dir() {
-            return Err(Error::io(
+            return Err(refusal(
                 &destination,
-                std::io::Error::new(
-                    std::io::ErrorKind::IsADirectory,
-                    "a folder is in the place of this output",
-                ),
+                std::io::ErrorKind::IsADirectory,
+                "a folder is in the place of this output".into(),
             ));
         }
         self.names.push(name.to_owned());
@@ -106,12 +107,10 @@ pub fn write_atomic(
         _ => Path::new("."),
     };
     if !dir.is_dir() {
-        return Err(Error::io(
+        return Err(refusal(
             path,
-            std::io::Error::new(
-                std::io::ErrorKind::NotFound,
-                format!("folder {} does not exist", dir.display()),
-            ),
+            std::io::ErrorKind::NotFound,
+            format!("folder {} does not exist", dir.display()),
         ));
     }
     let mut builder = tempfile::Builder::new();
