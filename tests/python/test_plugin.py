@@ -326,8 +326,9 @@ def test_failed_writes_leave_no_file(tmp_path: Path) -> None:
         occlux.write_exr(folder, result, scene)
     with pytest.raises(occlux.OccluxError):
         occlux.write_vdb(folder, {"density": volume})
-    with pytest.raises(occlux.OccluxError, match="the grid is empty"):
-        occlux.write_vdb(tmp_path / "empty.vdb", {"density": occlux.Volume(np.zeros((2, 2, 2)))})
+    with pytest.raises(occlux.OccluxError, match="does not fit a half float"):
+        huge = occlux.Volume(np.full((2, 2, 2), 1e6, dtype=np.float32))
+        occlux.write_vdb(tmp_path / "huge.vdb", {"density": huge}, half=True)
     with pytest.raises(occlux.OccluxError, match="invalid `compression`"):
         occlux.write_vdb(tmp_path / "bad.vdb", {"density": volume}, compression="lzma")
     with pytest.raises(TypeError):
