@@ -150,23 +150,18 @@ impl<'a> Medium<'a> {
         rng: &mut impl Rng,
     ) -> Option<Collision> {
         let mut left = free_path(1.0, rng);
+        let mut collision = None;
         for &[ta, tb, majorant] in crossings {
-            let mut ta = ta;
-            loop {
-                let span = (tb - ta) * majorant;
-                if left >= span {
-                    left -= span;
-                    break;
-                }
-                let t = ta + left / majorant;
-                if let Some(c) = self.collision_at(ray, t, majorant, rng) {
-                    return Some(c);
-                }
-                left = free_path(1.0, rng);
-                ta = t;
+            let stopped = spend(&mut left, ta, tb, majorant, rng, |t, majorant, rng| {
+                self.collision_at(ray, t, majorant, rng)
+                    .map(|c| collision = Some(c))
+                    .is_some()
+            });
+            if stopped {
+                break;
             }
         }
-        None
+        collision
     }
 
     /// Delta tracking's test at a tentative collision: real with probability sigma_t / majorant.
@@ -221,24 +216,40 @@ impl<'a> Medium<'a> {
     ) {
         let mut left = free_path(1.0, rng);
         self.majorants.walk(ray, t0, t1, |ta, tb, majorant| {
-            if majorant <= 0.0 {
-                return false;
-            }
-            let mut ta = ta;
-            loop {
-                let span = (tb - ta) * majorant;
-                if left >= span {
-                    left -= span;
-                    return false;
-                }
-                let t = ta + left / majorant;
-                if event(t, majorant, rng) {
-                    return true;
-                }
-                left = free_path(1.0, rng);
-                ta = t;
-            }
+            spend(&mut left, ta, tb, majorant, rng, &mut event)
         });
+    }
+}
+
+/// Spends the free path `left` (in the majorants' optical depth) over [ta, tb] of majorant
+/// `majorant`: `event(t, majorant, rng)` at each tentative collision inside, a new free path
+/// after each, until `event` returns true (then true) or the segment ends (false, `left` holding
+/// what is still to go).
+#[inline]
+fn spend<R: Rng>(
+    left: &mut f32,
+    ta: f32,
+    tb: f32,
+    majorant: f32,
+    rng: &mut R,
+    mut event: impl FnMut(f32, f32, &mut R) -> bool,
+) -> bool {
+    if majorant <= 0.0 {
+        return false;
+    }
+    let mut ta = ta;
+    loop {
+        let span = (tb - ta) * majorant;
+        if *left >= span {
+            *left -= span;
+            return false;
+        }
+        let t = ta + *left / majorant;
+        if event(t, majorant, rng) {
+            return true;
+        }
+        *left = free_path(1.0, rng);
+        ta = t;
     }
 }
 
