@@ -4,7 +4,9 @@ use flate2::read::GzDecoder;
 use flate2::write::GzEncoder;
 use flate2::Compression;
 use glam::Vec3;
-use occlux::volume::{load, load_with_info, LoadOptions, NonFinite, RawSpec, ScalarType, Volume};
+use occlux::volume::{
+    load, load_with_info, Frame, LoadOptions, NonFinite, RawSpec, ScalarType, Volume,
+};
 use occlux::Error;
 use std::io::{Read, Write};
 use std::path::{Path, PathBuf};
@@ -365,26 +367,6 @@ fn nrrd_space_directions_set_spacing_origin_and_flip_negative_axes() {
             }
         }
     }
-}
-
-#[test]
-fn nrrd_rotated_directions_keep_lengths() {
-    let dir = tempfile::tempdir().unwrap();
-    let path = dir.path().join("rotated.nrrd");
-    write_nrrd(
-        &path,
-        &[
-            ("type", "uchar"),
-            ("dimension", "3"),
-            ("sizes", "2 2 2"),
-            ("space directions", "(0.6,0.8,0) (-1.6,1.2,0) (0,0,3)"),
-            ("encoding", "raw"),
-        ],
-        &[1, 2, 3, 4, 5, 6, 7, 8],
-    );
-    let volume = load(&path, &opts()).unwrap();
-    assert!((volume.spacing() - Vec3::new(1.0, 2.0, 3.0)).length() < 1e-6);
-    assert_eq!(volume.values(), [1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0, 8.0]);
 }
 
 #[test]
@@ -1310,4 +1292,290 @@ fn loaded_volumes_match_a_direct_construction() {
     );
     let direct = Volume::new([2, 2, 2], Vec3::splat(3.0), Vec3::ZERO, as_f32(&values)).unwrap();
     assert_eq!(load(&path, &opts()).unwrap(), direct);
+}
+
+/// A world grid and the same grid stored with its axes in another order and direction: the
+/// stored array, its dims, and its frame (the world step of each stored axis and the world
+/// position of stored voxel 0), with `axes[a]` the world axis of stored axis a.
+struct Stored {
+    dims: [usize; 3],
+    values: Vec<f32>,
+    steps: [[f64; 3]; 3],
+    origin: [f64; 3],
+}
+
+fn stored_as(world: &Volume, axes: [usize; 3], flip: [bool; 3]) -> Stored {
+    let w = world.dims();
+    let dims = axes.map(|a| w[a]);
+    let spacing = world.spacing();
+    let mut values = Vec::with_capacity(world.values().len());
+    for k in 0..dims[2] {
+        for j in 0..dims[1] {
+            for i in 0..dims[0] {
+                let stored = [i, j, k];
+                let mut n = [0; 3];
+                for a in 0..3 {
+                    n[axes[a]] = if flip[a] {
+                        dims[a] - 1 - stored[a]
+                    } else {
+                        stored[a]
+                    };
+                }
+                values.push(world.at(n[0], n[1], n[2]));
+            }
+        }
+    }
+    let mut steps = [[0.0; 3]; 3];
+    let mut origin = world.origin().to_array().map(f64::from);
+    for a in 0..3 {
+        let sign = if flip[a] { -1.0 } else { 1.0 };
+        steps[a][axes[a]] = sign * spacing[axes[a]] as f64;
+        if flip[a] {
+            origin[axes[a]] += (dims[a] - 1) as f64 * spacing[axes[a]] as f64;
+        }
+    }
+    Stored {
+        dims,
+        values,
+        steps,
+        origin,
+    }
+}
+
+fn write_nifti_frame(path: &Path, stored: &Stored) {
+    let t = ty(ScalarType::F32);
+    let d = stored.dims.map(|n| n as i16);
+    let mut header = Nifti::new(d, t);
+    header.sform_code = 1;
+    for r in 0..3 {
+        header.srow[r] = [
+            stored.steps[0][r] as f32,
+            stored.steps[1][r] as f32,
+            stored.steps[2][r] as f32,
+            stored.origin[r] as f32,
+        ];
+    }
+    let data: Vec<u8> = stored.values.iter().flat_map(|v| v.to_le_bytes()).collect();
+    std::fs::write(path, header.bytes(&data)).unwrap();
+}
+
+/// The frame in LPS (x and y negated), as 3D Slicer writes NRRD.
+fn write_nrrd_lps(path: &Path, stored: &Stored) {
+    let lps = |v: [f64; 3]| format!("({},{},{})", -v[0], -v[1], v[2]);
+    let directions: Vec<String> = stored.steps.iter().map(|&s| lps(s)).collect();
+    let sizes = format!("{} {} {}", stored.dims[0], stored.dims[1], stored.dims[2]);
+    let data: Vec<u8> = stored.values.iter().flat_map(|v| v.to_le_bytes()).collect();
+    write_nrrd(
+        path,
+        &[
+            ("type", "float"),
+            ("dimension", "3"),
+            ("space", "left-posterior-superior"),
+            ("sizes", &sizes),
+            ("space directions", &directions.join(" ")),
+            ("space origin", &lps(stored.origin)),
+            ("endian", "little"),
+            ("encoding", "raw"),
+        ],
+        &data,
+    );
+}
+
+#[test]
+fn a_volume_stored_in_any_axis_order_and_direction_loads_to_the_same_world_grid() {
+    let dir = tempfile::tempdir().unwrap();
+    // Every voxel distinct, so any transposition or mirror shows.
+    let dims = [5, 4, 3];
+    let values: Vec<f32> = (0..60).map(|v| (v * 7 % 61) as f32 + 0.5).collect();
+    let world = Volume::new(
+        dims,
+        Vec3::new(0.5, 1.0, 2.0),
+        Vec3::new(1.0, -2.0, 3.0),
+        values,
+    )
+    .unwrap();
+    let orders = [
+        [0, 1, 2],
+        [0, 2, 1],
+        [1, 0, 2],
+        [1, 2, 0],
+        [2, 0, 1],
+        [2, 1, 0],
+    ];
+    for axes in orders {
+        for flips in 0..8 {
+            let flip = [0, 1, 2].map(|a| flips >> a & 1 == 1);
+            let stored = stored_as(&world, axes, flip);
+            let nifti = dir.path().join("scan.nii");
+            let nrrd = dir.path().join("scan.nrrd");
+            write_nifti_frame(&nifti, &stored);
+            write_nrrd_lps(&nrrd, &stored);
+            for path in [&nifti, &nrrd] {
+                let case = format!(
+                    "{} stored as axes {axes:?} flipped {flip:?}",
+                    path.display()
+                );
+                let (volume, info) = load_with_info(path, &opts()).unwrap();
+                assert_eq!(info.frame, Frame::Reordered { axes, flip }, "{case}");
+                assert_eq!(volume.dims(), world.dims(), "{case}");
+                assert_eq!(volume.spacing(), world.spacing(), "{case}");
+                assert!(
+                    (volume.origin() - world.origin()).length() < 1e-5,
+                    "{case}: origin {} against {}",
+                    volume.origin(),
+                    world.origin()
+                );
+                assert_eq!(volume.values(), world.values(), "{case}");
+            }
+        }
+    }
+}
+
+#[test]
+fn an_oblique_frame_is_resampled_onto_world_axes_exactly_for_a_linear_field() {
+    let dir = tempfile::tempdir().unwrap();
+    // A slab tilted 25 degrees about z and 15 about x, with anisotropic voxels.
+    let (a, b) = (25f64.to_radians(), 15f64.to_radians());
+    let rz = |v: [f64; 3]| {
+        [
+            v[0] * a.cos() - v[1] * a.sin(),
+            v[0] * a.sin() + v[1] * a.cos(),
+            v[2],
+        ]
+    };
+    let rx = |v: [f64; 3]| {
+        [
+            v[0],
+            v[1] * b.cos() - v[2] * b.sin(),
+            v[1] * b.sin() + v[2] * b.cos(),
+        ]
+    };
+    let spacing = [1.0, 1.5, 2.0];
+    let steps = [0, 1, 2].map(|i| {
+        let mut e = [0.0; 3];
+        e[i] = spacing[i];
+        rx(rz(e))
+    });
+    let origin = [4.0, -3.0, 2.0];
+    let dims = [9usize, 8, 7];
+    let field = |p: [f64; 3]| 0.3 * p[0] - 0.2 * p[1] + 0.5 * p[2] + 10.0;
+    let world_of = |i: [f64; 3]| {
+        [0, 1, 2].map(|w| origin[w] + (0..3).map(|c| i[c] * steps[c][w]).sum::<f64>())
+    };
+    let mut values = Vec::new();
+    for k in 0..dims[2] {
+        for j in 0..dims[1] {
+            for i in 0..dims[0] {
+                values.push(field(world_of([i as f64, j as f64, k as f64])) as f32);
+            }
+        }
+    }
+    let stored = Stored {
+        dims,
+        values: values.clone(),
+        steps,
+        origin,
+    };
+    let path = dir.path().join("oblique.nii");
+    write_nifti_frame(&path, &stored);
+    let (volume, info) = load_with_info(&path, &opts()).unwrap();
+    let Frame::Resampled { degrees } = info.frame else {
+        panic!("an oblique frame must be resampled, got {:?}", info.frame);
+    };
+    assert!((20.0..=30.0).contains(&degrees), "{degrees}");
+    assert!(info.frame.to_string().contains("oblique"), "{}", info.frame);
+    // Each world axis as fine as the stored axis nearest it (x, y, z here).
+    assert!((volume.spacing() - Vec3::new(1.0, 1.5, 2.0)).length() < 1e-6);
+    let lowest = values.iter().copied().fold(f32::INFINITY, f32::min);
+    let inverse = glam::DMat3::from_cols_array_2d(&steps).inverse();
+    let (mut inside, mut outside) = (0, 0);
+    let [nx, ny, nz] = volume.dims();
+    for k in 0..nz {
+        for j in 0..ny {
+            for i in 0..nx {
+                let p = (volume.origin()
+                    + Vec3::new(i as f32, j as f32, k as f32) * volume.spacing())
+                .as_dvec3();
+                let index = inverse * (p - glam::DVec3::from_array(origin));
+                let d = glam::DVec3::new(dims[0] as f64, dims[1] as f64, dims[2] as f64);
+                let v = volume.at(i, j, k);
+                if index.cmpge(glam::DVec3::ZERO).all() && index.cmple(d - 1.0).all() {
+                    // Trilinear interpolation reproduces a linear field.
+                    let expected = field(p.to_array()) as f32;
+                    assert!(
+                        (v - expected).abs() < 1e-4 * expected.abs(),
+                        "{v} vs {expected} at {p}"
+                    );
+                    inside += 1;
+                } else if index.cmplt(glam::DVec3::splat(-0.5)).any() || index.cmpgt(d - 0.5).any()
+                {
+                    assert_eq!(v, lowest, "outside the stored box at {p}");
+                    outside += 1;
+                }
+            }
+        }
+    }
+    assert!(
+        inside > 100 && outside > 100,
+        "{inside} inside, {outside} outside"
+    );
+    // Every stored centre lies within the resampled box.
+    let (lo, hi) = volume.bounds();
+    for c in 0..8 {
+        let corner = [0, 1, 2].map(|a| {
+            if c >> a & 1 == 1 {
+                (dims[a] - 1) as f64
+            } else {
+                0.0
+            }
+        });
+        let p = Vec3::from_array(world_of(corner).map(|x| x as f32));
+        assert!(
+            p.cmpge(lo).all() && p.cmple(hi).all(),
+            "{p} outside {lo} .. {hi}"
+        );
+    }
+}
+
+#[test]
+fn frames_that_cannot_be_placed_are_refused_by_name() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("frame.nrrd");
+    let case = |space: &str, directions: &str| {
+        let mut fields = vec![
+            ("type", "uchar"),
+            ("dimension", "3"),
+            ("sizes", "2 2 2"),
+            ("space directions", directions),
+            ("encoding", "raw"),
+        ];
+        if !space.is_empty() {
+            fields.push(("space", space));
+        }
+        write_nrrd(&path, &fields, &[1, 2, 3, 4, 5, 6, 7, 8]);
+        failure(&path, &opts())
+    };
+    let parallel = case("", "(1,0,0) (2,0,0) (0,0,1)");
+    assert_mentions(&parallel, &["space directions", "parallel"]);
+    let left = case("3D-left-handed", "(1,0,0) (0,1,0) (0,0,1)");
+    assert_mentions(&left, &["space", "left-handed", "mirror"]);
+    let unknown = case("right-posterior-inferior", "(1,0,0) (0,1,0) (0,0,1)");
+    assert_mentions(&unknown, &["space", "right-posterior-inferior"]);
+    // An oblique frame whose world-aligned grid would exceed the memory budget.
+    let small = LoadOptions {
+        memory_budget: 64,
+        ..opts()
+    };
+    write_nrrd(
+        &path,
+        &[
+            ("type", "uchar"),
+            ("dimension", "3"),
+            ("sizes", "2 2 2"),
+            ("space directions", "(0.6,0.8,0) (-0.8,0.6,0) (0,0,1)"),
+            ("encoding", "raw"),
+        ],
+        &[1, 2, 3, 4, 5, 6, 7, 8],
+    );
+    assert_mentions(&failure(&path, &small), &["oblique", "memory budget"]);
 }

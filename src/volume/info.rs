@@ -154,6 +154,7 @@ pub fn print(file: &Path, options: &LoadOptions) -> Result<()> {
     println!("spacing   {}", vol.spacing());
     println!("origin    {}", vol.origin());
     println!("bounds    {blo} .. {bhi}");
+    println!("frame     {}", source.frame);
     let census = &source.non_finite;
     let bad = census.indices.len();
     if bad > 0 {
@@ -164,7 +165,7 @@ pub fn print(file: &Path, options: &LoadOptions) -> Result<()> {
             census.nan,
             census.positive_infinite,
             census.negative_infinite,
-            whereabouts(census, vol.dims())
+            whereabouts(census, census.stored_dims)
         );
     }
     let Some(stats) = Statistics::of(&vol, bad) else {

@@ -9,7 +9,9 @@ pub mod info;
 mod loaders;
 pub mod phantom;
 
-pub use loaders::{load, load_with_info, LoadOptions, NonFinite, RawSpec, ScalarType, SourceInfo};
+pub use loaders::{
+    load, load_with_info, Frame, LoadOptions, NonFinite, RawSpec, ScalarType, SourceInfo,
+};
 
 use crate::error::{Error, Result};
 use glam::Vec3;

@@ -7,6 +7,7 @@
 //! shared [`decode`]; hand the values to [`finish`], which applies the [`NonFinite`] policy and
 //! builds the volume. Every error names the file.
 
+mod frame;
 mod nifti;
 mod npy;
 mod nrrd;
@@ -15,6 +16,8 @@ mod vdb;
 
 use super::{Volume, DEFAULT_MEMORY_BUDGET};
 use crate::error::{Error, Result};
+pub use frame::Frame;
+use frame::Placement;
 use glam::Vec3;
 use rayon::prelude::*;
 use std::io::{self, ErrorKind, Read};
@@ -118,6 +121,9 @@ pub struct NonFiniteVoxels {
     pub negative_infinite: usize,
     /// Every such voxel's index as stored in the file (x fastest), in file order.
     pub indices: Vec<usize>,
+    /// The grid's voxels as stored in the file (before it was brought into the world frame),
+    /// which `indices` count in.
+    pub stored_dims: [usize; 3],
 }
 
 /// How to read a headerless `.raw` file.
@@ -169,6 +175,8 @@ pub struct SourceInfo {
     pub grid: Option<String>,
     /// The NaN and infinite values found (with [`NonFinite::Census`]; empty otherwise).
     pub non_finite: NonFiniteVoxels,
+    /// How the stored grid was brought into the world frame.
+    pub frame: Frame,
 }
 
 const SUPPORTED: &str = ".nrrd, .nhdr, .nii, .nii.gz, .vdb, .raw, .npy";
@@ -362,81 +370,6 @@ fn convert<const N: usize>(
         .collect()
 }
 
-/// Where a grid sits in world space.
-#[derive(Clone, Copy, Debug, PartialEq)]
-struct Placement {
-    spacing: Vec3,
-    /// World position of the centre of voxel (0, 0, 0) after flipping.
-    origin: Vec3,
-    /// Axes whose data is reversed so that index and world coordinates grow together.
-    flip: [bool; 3],
-}
-
-impl Placement {
-    /// An axis-aligned grid with the data in stored order; `spacing` is already validated.
-    fn grid(spacing: Vec3, origin: Vec3) -> Self {
-        Self {
-            spacing,
-            origin,
-            flip: [false; 3],
-        }
-    }
-
-    /// Placement from an index-to-world frame: `steps[a]` is the world step of index axis `a`
-    /// (a column of the affine matrix) and `origin` the world position of voxel (0, 0, 0).
-    /// `field` names the header field for messages.
-    ///
-    /// Spacing is each step's length. When each step is parallel to its own world axis (the
-    /// matrix is diagonal), a negative step flips the data along that axis and moves the origin
-    /// to the other end, so every voxel keeps its world position. A rotated, oblique or permuted
-    /// frame cannot be expressed by a [`Volume`]: its rotation is dropped, keeping the step
-    /// lengths and the origin, so the volume appears in its own index frame.
-    fn from_frame(
-        path: &Path,
-        field: &str,
-        steps: [[f64; 3]; 3],
-        origin: [f64; 3],
-        dims: [usize; 3],
-    ) -> Result<Self> {
-        if origin.iter().any(|o| !o.is_finite()) {
-            return Err(Error::format(
-                path,
-                format!("{field}: origin {origin:?} is not finite"),
-            ));
-        }
-        let mut lengths = [0.0f64; 3];
-        for (a, step) in steps.iter().enumerate() {
-            let length = step.iter().map(|s| s * s).sum::<f64>().sqrt();
-            if !(length.is_finite() && length > 0.0) {
-                return Err(Error::format(
-                    path,
-                    format!(
-                        "{field}: axis {a} step {step:?} must be finite and of non-zero length"
-                    ),
-                ));
-            }
-            lengths[a] = length;
-        }
-        let diagonal =
-            (0..3).all(|a| (0..3).all(|w| w == a || steps[a][w].abs() <= 1e-6 * lengths[a]));
-        let mut world = origin;
-        let mut flip = [false; 3];
-        if diagonal {
-            for a in 0..3 {
-                if steps[a][a] < 0.0 {
-                    flip[a] = true;
-                    world[a] += dims[a].saturating_sub(1) as f64 * steps[a][a];
-                }
-            }
-        }
-        Ok(Self {
-            spacing: Vec3::new(lengths[0] as f32, lengths[1] as f32, lengths[2] as f32),
-            origin: Vec3::new(world[0] as f32, world[1] as f32, world[2] as f32),
-            flip,
-        })
-    }
-}
-
 /// Checks that per-axis spacings from `field` are positive and finite.
 fn check_spacing(path: &Path, field: &str, spacing: [f64; 3]) -> Result<Vec3> {
     for (a, &s) in spacing.iter().enumerate() {
@@ -465,8 +398,22 @@ fn finish(
     opts: &LoadOptions,
 ) -> Result<(Volume, NonFiniteVoxels)> {
     let census = apply_non_finite(path, dims, &mut values, opts.non_finite)?;
-    flip_axes(&mut values, dims, placement.flip);
-    let volume = Volume::new(dims, placement.spacing, placement.origin, values)
+    let world_dims = placement.world_dims(dims);
+    let bytes = world_dims.iter().map(|&n| n as u128).product::<u128>() * 4;
+    if bytes > opts.memory_budget as u128 {
+        return Err(Error::format(
+            path,
+            format!(
+                "{}: the world-aligned grid of {world_dims:?} voxels needs {} MiB, over the \
+                 memory budget of {} MiB",
+                placement.frame(),
+                bytes >> 20,
+                opts.memory_budget >> 20
+            ),
+        ));
+    }
+    let values = placement.apply(dims, values);
+    let volume = Volume::new(world_dims, placement.spacing, placement.origin, values)
         .map_err(|e| in_file(path, e))?;
     Ok((volume, census))
 }
@@ -520,38 +467,9 @@ fn apply_non_finite(
                 values[i] = 0.0;
             }
             census.indices = indices;
+            census.stored_dims = dims;
             Ok(census)
         }
-    }
-}
-
-/// Reverses the data along each flagged axis (x fastest).
-fn flip_axes(values: &mut [f32], dims: [usize; 3], flip: [bool; 3]) {
-    let [nx, ny, _] = dims;
-    if nx == 0 || ny == 0 {
-        return; // nothing to flip; Volume::new reports the bad dims
-    }
-    if flip[0] {
-        values
-            .par_chunks_exact_mut(nx)
-            .for_each(|row| row.reverse());
-    }
-    if flip[1] {
-        values
-            .par_chunks_exact_mut(nx * ny)
-            .for_each(|slab| reverse_blocks(slab, nx));
-    }
-    if flip[2] {
-        reverse_blocks(values, nx * ny);
-    }
-}
-
-/// Reverses the order of the `block`-sized pieces of `data`, keeping each piece intact.
-fn reverse_blocks(data: &mut [f32], block: usize) {
-    let count = data.len() / block;
-    for b in 0..count / 2 {
-        let (low, high) = data.split_at_mut((count - 1 - b) * block);
-        low[b * block..(b + 1) * block].swap_with_slice(&mut high[..block]);
     }
 }
 
@@ -618,42 +536,5 @@ mod tests {
         );
         assert_eq!(ScalarType::from_name("double"), Some(ScalarType::F64));
         assert_eq!(ScalarType::from_name("int64"), None);
-    }
-
-    #[test]
-    fn negative_diagonal_steps_flip_and_keep_world_positions() {
-        let steps = [[-2.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, -0.5]];
-        let p =
-            Placement::from_frame(Path::new("t"), "f", steps, [10.0, 1.0, 3.0], [4, 2, 3]).unwrap();
-        assert_eq!(p.flip, [true, false, true]);
-        assert_eq!(p.spacing, Vec3::new(2.0, 1.0, 0.5));
-        // Stored voxel 3 on x sits at 10 - 3 * 2 = 4, and is now voxel 0.
-        assert_eq!(p.origin, Vec3::new(4.0, 1.0, 2.0));
-        let mut values: Vec<f32> = (0..24).map(|v| v as f32).collect();
-        flip_axes(&mut values, [4, 2, 3], p.flip);
-        // New (i, j, k) holds stored (3 - i, j, 2 - k).
-        for k in 0..3 {
-            for j in 0..2 {
-                for i in 0..4 {
-                    let stored = (3 - i) + 4 * (j + 2 * (2 - k));
-                    assert_eq!(values[i + 4 * (j + 2 * k)], stored as f32);
-                }
-            }
-        }
-    }
-
-    #[test]
-    fn rotated_frames_keep_lengths_and_origin() {
-        let (c, s) = (0.6, 0.8);
-        let steps = [[2.0 * c, 2.0 * s, 0.0], [-s, c, 0.0], [0.0, 0.0, 3.0]];
-        let p =
-            Placement::from_frame(Path::new("t"), "f", steps, [1.0, 2.0, 3.0], [2, 2, 2]).unwrap();
-        assert_eq!(p.flip, [false; 3]);
-        assert!((p.spacing - Vec3::new(2.0, 1.0, 3.0)).length() < 1e-6);
-        assert_eq!(p.origin, Vec3::new(1.0, 2.0, 3.0));
-        let zero = [[0.0; 3], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
-        let err =
-            Placement::from_frame(Path::new("t"), "f", zero, [0.0; 3], [2, 2, 2]).unwrap_err();
-        assert!(err.to_string().contains("axis 0"), "{err}");
     }
 }

@@ -8,10 +8,10 @@
 //!   mean "no scaling" (FSL writes 0, nibabel NaN), and a NaN `scl_inter` counts as 0.
 //! - geometry: the sform when `sform_code > 0`, else the qform when `qform_code > 0`, else
 //!   `pixdim` spacing with the origin at 0. The affine's columns and translation go through
-//!   [`Placement::from_frame`]: spacing is each column's length; a diagonal affine with negative
-//!   entries (e.g. a radiological x axis, or qfac = -1) flips the data so that every voxel keeps
-//!   its world position; an oblique or permuted affine keeps the column lengths and the
-//!   translation and drops the rotation, so such a volume appears in its own index frame.
+//!   [`Placement::from_frame`] (see [`super::frame`]): spacing is each column's length; axes
+//!   that are permuted or reversed (an LAS, ARS or LPI scan, qfac = -1) are reordered exactly
+//!   so that every voxel keeps its world position; an oblique affine is resampled onto a
+//!   world-aligned grid.
 //!
 //! Not supported (clear errors): `.hdr`/`.img` pairs, NIfTI-2, and complex, RGB and 64-bit
 //! integer data.
@@ -71,6 +71,7 @@ fn load_from(
         scalar: scalar.name().to_string(),
         grid: None,
         non_finite,
+        frame: placement.frame(),
     };
     Ok((volume, info))
 }

@@ -7,7 +7,9 @@
 //! shape `(nx, ny, nz)` maps to dims `[nx, ny, nz]`. Either way the bytes are used as stored,
 //! x fastest. Spacing is 1 and the origin 0 (the format has no geometry).
 
-use super::{decode, finish, read_payload, Layout, LoadOptions, Placement, ScalarType, SourceInfo};
+use super::{
+    decode, finish, read_payload, Frame, Layout, LoadOptions, Placement, ScalarType, SourceInfo,
+};
 use crate::error::{Error, Result};
 use crate::volume::Volume;
 use glam::Vec3;
@@ -45,6 +47,7 @@ pub(super) fn load(path: &Path, opts: &LoadOptions) -> Result<(Volume, SourceInf
         scalar: scalar.name().to_string(),
         grid: None,
         non_finite,
+        frame: Frame::ALIGNED,
     };
     Ok((volume, info))
 }

@@ -7,9 +7,13 @@
 //! `space origin`; `data file` (one file, relative to the header's folder); `line skip` (lines of
 //! the data file before the data); `byte skip` (bytes before the data, counted in the
 //! decompressed stream for gzip; -1 with raw means the data ends the file). Spacing defaults to 1
-//! and the origin to 0. `space directions` go through [`Placement::from_frame`]: spacing is each
-//! direction's length, negative axis-aligned directions flip the data so voxels keep their world
-//! positions, and the rotation of a non-axis-aligned frame is dropped.
+//! and the origin to 0. `space directions` go through [`Placement::from_frame`] (see
+//! [`super::frame`]: permuted and flipped axes are reordered exactly, oblique frames resampled).
+//! `space` names the frame of `space directions` and `space origin`: the anatomical spaces
+//! (`right-anterior-superior` or `RAS`, `left-posterior-superior` or `LPS`, the `LAS` kind and
+//! their `-time` forms) are turned into RAS, NIfTI's world frame, so that a scan written by
+//! 3D Slicer (LPS) and the same scan as NIfTI land in the same place; `scanner-xyz` and
+//! `3D-right-handed` are taken as they are; a left-handed space is refused (it would mirror).
 
 use super::{
     check_spacing, decode, finish, read_payload, skip, Layout, LoadOptions, Placement, ScalarType,
@@ -45,6 +49,7 @@ pub(super) fn load(path: &Path, opts: &LoadOptions) -> Result<(Volume, SourceInf
         scalar: header.layout.scalar.name().to_string(),
         grid: None,
         non_finite,
+        frame: header.placement.frame(),
     };
     Ok((volume, info))
 }
@@ -319,15 +324,17 @@ fn placement(
             ));
         }
     }
+    let signs = space_signs(path, fields)?;
+    let to_ras = |v: [f64; 3]| [v[0] * signs[0], v[1] * signs[1], v[2] * signs[2]];
     let origin = match fields.get("space origin") {
-        Some(text) => parse_vector(path, "space origin", text)?,
+        Some(text) => to_ras(parse_vector(path, "space origin", text)?),
         None => [0.0; 3],
     };
     if let Some(text) = fields.get("space directions") {
         let directions = parse_directions(path, text, dimension)?;
         let mut steps = [[0.0; 3]; 3];
         for (step, &a) in steps.iter_mut().zip(&kept) {
-            *step = directions[a].ok_or_else(|| {
+            *step = directions[a].map(to_ras).ok_or_else(|| {
                 Error::format(
                     path,
                     format!("space directions: axis {a} is 'none' but holds a spatial axis"),
@@ -365,6 +372,39 @@ fn placement(
         [0.0, 0.0, spacing[2]],
     ];
     Placement::from_frame(path, "space origin", steps, origin, dims)
+}
+
+/// The signs per axis that take vectors of the header's `space` into RAS (none without one).
+fn space_signs(path: &Path, fields: &Fields) -> Result<[f64; 3]> {
+    let Some(space) = fields.get("space") else {
+        return Ok([1.0; 3]);
+    };
+    let name = space.trim().to_ascii_lowercase();
+    let name = name.strip_suffix("-time").unwrap_or(&name);
+    let signs = match name {
+        "right-anterior-superior" | "ras" | "scanner-xyz" | "3d-right-handed" => [1.0, 1.0, 1.0],
+        "left-anterior-superior" | "las" => [-1.0, 1.0, 1.0],
+        "left-posterior-superior" | "lps" => [-1.0, -1.0, 1.0],
+        "3d-left-handed" => {
+            return Err(Error::format(
+                path,
+                format!(
+                    "space: '{space}' is left-handed; rendered in Occlux's right-handed world                      it would be mirrored"
+                ),
+            ))
+        }
+        _ => {
+            return Err(Error::format(
+                path,
+                format!(
+                    "space: '{space}' is not a 3D space Occlux knows (right-anterior-superior, \
+                     left-anterior-superior, left-posterior-superior, scanner-xyz, \
+                     3D-right-handed, or their -time forms)"
+                ),
+            ))
+        }
+    };
+    Ok(signs)
 }
 
 /// Parses `dimension` entries, each a vector `(x,y,z)` or `none`.

@@ -3,7 +3,8 @@
 //! `header_bytes + voxels * type size`: anything else means the spec does not describe the file.
 
 use super::{
-    check_spacing, decode, finish, read_payload, skip, Layout, LoadOptions, Placement, SourceInfo,
+    check_spacing, decode, finish, read_payload, skip, Frame, Layout, LoadOptions, Placement,
+    SourceInfo,
 };
 use crate::error::{Error, Result};
 use crate::volume::Volume;
@@ -60,6 +61,7 @@ pub(super) fn load(path: &Path, opts: &LoadOptions) -> Result<(Volume, SourceInf
         scalar: spec.scalar.name().to_string(),
         grid: None,
         non_finite,
+        frame: Frame::ALIGNED,
     };
     Ok((volume, info))
 }

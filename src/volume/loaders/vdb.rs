@@ -12,7 +12,7 @@
 //! - vdb-rs panics on some malformed or unsupported files rather than returning an error; those
 //!   panics are caught here and reported as format errors naming the file.
 
-use super::{check_spacing, finish, LoadOptions, NonFiniteVoxels, Placement, SourceInfo};
+use super::{check_spacing, finish, Frame, LoadOptions, NonFiniteVoxels, Placement, SourceInfo};
 use crate::error::{Error, Result};
 use crate::volume::{check_budget, Volume};
 use glam::{DVec3, IVec3, Vec3};
@@ -51,6 +51,7 @@ pub(super) fn load(path: &Path, opts: &LoadOptions) -> Result<(Volume, SourceInf
         scalar: if half { "float16" } else { "float32" }.into(),
         grid: Some(name),
         non_finite,
+        frame: Frame::ALIGNED,
     };
     Ok((volume, info))
 }
