@@ -1579,3 +1579,45 @@ fn frames_that_cannot_be_placed_are_refused_by_name() {
     );
     assert_mentions(&failure(&path, &small), &["oblique", "memory budget"]);
 }
+
+/// Found by fuzzing (fuzz/README.md): an sform with spacings of 3e38 and 3e-29 loaded, and its
+/// box overflowed to infinity.
+#[test]
+fn a_frame_whose_box_f32_cannot_hold_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let t = ty(ScalarType::U8);
+    let cases: [([f32; 3], [f32; 3], &[&str]); 2] = [
+        ([1.0, 1.0, 3.3e38], [0.0; 3], &["box", "overflows"]),
+        ([1e-3, 1.0, 1.0], [1e5, 0.0, 0.0], &["too small", "spacing"]),
+    ];
+    for (spacing, origin, words) in cases {
+        let mut header = Nifti::new([2, 2, 2], t);
+        header.sform_code = 1;
+        for r in 0..3 {
+            header.srow[r][r] = spacing[r];
+            header.srow[r][3] = origin[r];
+        }
+        let path = dir.path().join("huge.nii");
+        std::fs::write(&path, header.bytes(&[0u8; 8])).unwrap();
+        assert_mentions(&failure(&path, &opts()), words);
+    }
+}
+
+/// Every input fuzzing found (fuzz/README.md), kept as found: each must be refused with an
+/// error that names the problem, not abort or load.
+#[test]
+fn inputs_found_by_fuzzing_are_refused_by_name() {
+    let folder = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/fuzz");
+    let cases = [
+        // vdb-rs would allocate 8e18 bytes for a block and abort the process.
+        (
+            "vdb-block-of-8e18-bytes.vdb",
+            &["corrupt OpenVDB", "claims 8314045559560208389 bytes"][..],
+        ),
+        // Loaded with a box that overflowed f32.
+        ("nifti-spacing-3e38.nii", &["box", "overflows"][..]),
+    ];
+    for (name, words) in cases {
+        assert_mentions(&failure(&folder.join(name), &opts()), words);
+    }
+}

@@ -64,6 +64,7 @@ impl Volume {
                 "origin must be finite, got {origin}"
             )));
         }
+        check_box(dims, spacing, origin)?;
         if let Some(index) = values.iter().position(|v| !v.is_finite()) {
             return Err(Error::Volume(format!(
                 "value {} at voxel {:?} is not finite",
@@ -295,6 +296,34 @@ fn size_text(bytes: f64) -> String {
     } else {
         format!("{:.1} KiB", bytes / KIB)
     }
+}
+
+/// The smallest voxel, relative to the box's distance from the world's origin, that f32
+/// positions still resolve: 8 of f32's steps (1.2e-7 each) per voxel.
+const MIN_RELATIVE_SPACING: f32 = 1e-6;
+
+/// The box [origin - spacing / 2, origin + (dims - 1/2) spacing] must be finite in f32, and
+/// voxels wide enough that positions inside them are distinct (a header can claim spacings
+/// of 1e38 or 1e-30).
+fn check_box(dims: [usize; 3], spacing: Vec3, origin: Vec3) -> Result<()> {
+    let d = Vec3::new(dims[0] as f32, dims[1] as f32, dims[2] as f32);
+    let (lo, hi) = (origin - 0.5 * spacing, origin + (d - 0.5) * spacing);
+    if !(lo.is_finite() && hi.is_finite()) {
+        return Err(Error::Volume(format!(
+            "the grid's box {lo} .. {hi} (origin {origin}, spacing {spacing}, dims {dims:?}) \
+             overflows single-precision floats; rescale the spacing"
+        )));
+    }
+    let reach = lo.abs().max(hi.abs()).max_element();
+    if spacing.min_element() < MIN_RELATIVE_SPACING * reach {
+        return Err(Error::Volume(format!(
+            "voxels of spacing {spacing} are too small to place {reach:e} from the world's \
+             origin in single precision (at least {:e} there); move the origin nearer or \
+             rescale the spacing",
+            MIN_RELATIVE_SPACING * reach
+        )));
+    }
+    Ok(())
 }
 
 fn unflatten(dims: [usize; 3], index: usize) -> [usize; 3] {

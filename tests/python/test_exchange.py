@@ -320,3 +320,35 @@ def test_an_all_transparent_classification_exports_an_empty_density_grid(blob, t
         by_name["density"].transform.voxelSize(), expected_placement()[0], rtol=1e-6
     )
     assert by_name["value"].activeVoxelCount() == np.count_nonzero(values)
+
+
+@pytest.mark.parametrize("half", [False, True])
+def test_occlux_reads_what_openvdb_writes(tmp_path, openvdb, half):
+    """A sparse grid written by OpenVDB 12 itself (Blosc and active-mask compression, the
+    library's defaults, with tiles, internal-node values and scattered leaves) loads into the
+    same dense values: the size checks in front of vdb-rs (vdb_sizes.rs) follow real files."""
+    import occlux
+
+    rng = np.random.default_rng(7)
+    dense = np.zeros((40, 24, 16), dtype=np.float32)  # x, y, z
+    dense[3:37, 2:20, 1:15] = rng.uniform(0.5, 2.0, size=(34, 18, 14)).astype(np.float32)
+    dense[10:18, 8:16, 0:8] = 3.0  # a constant block, pruned to a tile
+    grid = openvdb.FloatGrid()
+    grid.copyFromArray(dense, ijk=(0, 0, 0), tolerance=0.0)
+    grid.prune()
+    grid.name = "density"
+    grid.transform = openvdb.createLinearTransform(voxelSize=0.5)
+    if half:
+        grid.saveFloatAsHalf = True
+    path = tmp_path / "openvdb.vdb"
+    openvdb.write(str(path), grids=[grid])
+    scene = tmp_path / "scene.toml"
+    camera = "[camera]\nposition = [0, -60, 0]\ntarget = [10, 6, 4]\n"
+    scene.write_text(f'[volume]\npath = "{path}"\n{camera}')
+    volume = occlux.Scene.load(str(scene)).load_volume()
+    want = dense.astype(np.float16).astype(np.float32) if half else dense
+    nz = np.argwhere(want)
+    lo, hi = nz.min(0), nz.max(0) + 1
+    got = volume.values  # (z, y, x) over the active bounding box
+    np.testing.assert_array_equal(got, want[lo[0] : hi[0], lo[1] : hi[1], lo[2] : hi[2]].T)
+    assert volume.spacing == pytest.approx((0.5, 0.5, 0.5))

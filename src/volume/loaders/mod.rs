@@ -13,6 +13,7 @@ mod npy;
 mod nrrd;
 mod raw;
 mod vdb;
+mod vdb_sizes;
 
 use super::{Volume, DEFAULT_MEMORY_BUDGET};
 use crate::error::{Error, Result};
@@ -260,6 +261,9 @@ fn in_file(path: &Path, error: Error) -> Error {
     }
 }
 
+/// Bytes read before the payload's buffer first grows (64 KiB).
+const FIRST_READ: usize = 1 << 16;
+
 /// Reads exactly the payload's bytes from `reader`; `what` names the data in messages ("gzip
 /// data"). Fewer bytes, a decoding error, or bytes left over are errors stating expected vs found:
 /// left-over data means the header's sizes or type do not describe the file.
@@ -271,15 +275,20 @@ fn read_payload(
 ) -> Result<Vec<u8>> {
     let expected = layout.byte_len;
     let mut bytes = Vec::new();
-    bytes.try_reserve_exact(expected).map_err(|_| {
-        Error::format(
-            path,
-            format!("cannot allocate {expected} bytes for {}", layout.describe()),
-        )
-    })?;
-    bytes.resize(expected, 0);
     let mut filled = 0;
     while filled < expected {
+        if filled == bytes.len() {
+            // Grow with the data that arrives, at most doubling, rather than by what the header
+            // claims: a truncated file or a corrupt size then costs what the file holds.
+            let more = (expected - filled).min(filled.max(FIRST_READ));
+            bytes.try_reserve_exact(more).map_err(|_| {
+                Error::format(
+                    path,
+                    format!("cannot allocate {expected} bytes for {}", layout.describe()),
+                )
+            })?;
+            bytes.resize(filled + more, 0);
+        }
         match reader.read(&mut bytes[filled..]) {
             Ok(0) => {
                 return Err(Error::format(

@@ -10,9 +10,13 @@
 //!   (i, j, k) of the grid's index space sits at `translation + (i, j, k) * scale`; the volume's
 //!   origin is the world position of the bounding box's first voxel.
 //! - vdb-rs panics on some malformed or unsupported files rather than returning an error; those
-//!   panics are caught here and reported as format errors naming the file.
+//!   panics are caught here and reported as format errors naming the file. It also allocates
+//!   whatever a length field says, and a failed allocation cannot be caught: [`vdb_sizes`]
+//!   checks every such field against the file's size first.
 
-use super::{check_spacing, finish, Frame, LoadOptions, NonFiniteVoxels, Placement, SourceInfo};
+use super::{
+    check_spacing, finish, vdb_sizes, Frame, LoadOptions, NonFiniteVoxels, Placement, SourceInfo,
+};
 use crate::error::{Error, Result};
 use crate::volume::{check_budget, Volume};
 use glam::{DVec3, IVec3, Vec3};
@@ -84,6 +88,8 @@ fn read_float_grid(
     wanted: Option<&str>,
 ) -> Result<(String, Grid<f32>)> {
     let fail = |e: vdb_rs::ParseError| Error::format(path, format!("reading OpenVDB: {e}"));
+    let open = || File::open(path).map_err(|e| Error::io(path, e));
+    vdb_sizes::check_header(path, open()?)?;
     let mut vdb = VdbReader::new(reader).map_err(fail)?;
     let mut names = vdb.available_grids();
     names.sort();
@@ -119,6 +125,14 @@ fn read_float_grid(
             )
         })?,
     };
+    let descriptor = &vdb.grid_descriptors[&name];
+    let at = vdb_sizes::GridAt {
+        grid_pos: descriptor.grid_pos,
+        block_pos: descriptor.block_pos,
+        compression: descriptor.compression.bits(),
+        half: descriptor.meta_data.is_half_float(),
+    };
+    vdb_sizes::check_grid(path, open()?, &at)?;
     let grid = vdb.read_grid::<f32>(&name).map_err(fail)?;
     Ok((name, grid))
 }
