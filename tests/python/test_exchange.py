@@ -326,7 +326,8 @@ def test_an_all_transparent_classification_exports_an_empty_density_grid(blob, t
 def test_occlux_reads_what_openvdb_writes(tmp_path, openvdb, half):
     """A sparse grid written by OpenVDB 12 itself (Blosc and active-mask compression, the
     library's defaults, with tiles, internal-node values and scattered leaves) loads into the
-    same dense values: the size checks in front of vdb-rs (vdb_sizes.rs) follow real files."""
+    same dense values: the size checks in front of vdb-rs (vdb_sizes.rs) follow real files.
+    Half floats in OpenVDB's own layout are refused by name."""
     import occlux
 
     rng = np.random.default_rng(7)
@@ -345,8 +346,14 @@ def test_occlux_reads_what_openvdb_writes(tmp_path, openvdb, half):
     scene = tmp_path / "scene.toml"
     camera = "[camera]\nposition = [0, -60, 0]\ntarget = [10, 6, 4]\n"
     scene.write_text(f'[volume]\npath = "{path}"\n{camera}')
+    if half:
+        # vdb-rs 0.6 fails on OpenVDB's own half-float layout (it reports an I/O error); the
+        # size checks refuse it first, saying so, instead of letting it allocate.
+        with pytest.raises(occlux.OccluxError, match="half-float grids that OpenVDB"):
+            occlux.Scene.load(str(scene)).load_volume()
+        return
     volume = occlux.Scene.load(str(scene)).load_volume()
-    want = dense.astype(np.float16).astype(np.float32) if half else dense
+    want = dense
     nz = np.argwhere(want)
     lo, hi = nz.min(0), nz.max(0) + 1
     got = volume.values  # (z, y, x) over the active bounding box

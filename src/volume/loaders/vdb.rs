@@ -9,6 +9,9 @@
 //! - The index-to-world map must be a scale and translation (vdb-rs reads no other): voxel
 //!   (i, j, k) of the grid's index space sits at `translation + (i, j, k) * scale`; the volume's
 //!   origin is the world position of the bounding box's first voxel.
+//! - Half-float grids are read as Occlux writes them; vdb-rs 0.6 fails on those that OpenVDB
+//!   itself writes (tests/python/test_exchange.py), and they are refused with a message
+//!   saying so. Full-float grids from OpenVDB, Blosc-compressed or not, are read.
 //! - vdb-rs panics on some malformed or unsupported files rather than returning an error; those
 //!   panics are caught here and reported as format errors naming the file. It also allocates
 //!   whatever a length field says, and a failed allocation cannot be caught: [`vdb_sizes`]

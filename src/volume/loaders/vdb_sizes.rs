@@ -111,7 +111,13 @@ impl<'a> Walk<'a, BufReader<std::fs::File>> {
 
 impl<R: BufRead + Seek> Walk<'_, R> {
     fn corrupt(&self, what: String) -> Error {
-        Error::format(self.path, format!("corrupt OpenVDB file: {what}"))
+        Error::format(
+            self.path,
+            format!(
+                "corrupt OpenVDB file, or a layout vdb-rs does not read (such as half-float \
+                 grids that OpenVDB itself wrote): {what}"
+            ),
+        )
     }
 
     fn left(&mut self) -> Result<u64> {
