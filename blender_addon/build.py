@@ -34,6 +34,7 @@ SOURCES = (
     "operators/render.py",
     "operators/check.py",
     "operators/composite.py",
+    "operators/stage.py",
 )
 
 

@@ -37,7 +37,12 @@ def volume_material(
     1) and an albedo from the transfer function's colours over the `value` grid. With an `ao`
     grid, read by an Attribute node: ``ao="ALBEDO"`` darkens the albedo by
     ``mix(1, ao, factor)``; ``ao="EMISSION"`` emits the albedo colour with strength
-    ``factor * ao``. The factor is the value node named AO_FACTOR (the panel's AO strength)."""
+    ``factor * ao``. The factor is the value node named AO_FACTOR (the panel's AO strength).
+    The grid is the one ``occlux.ao_volume`` writes by default (``convention="unoccluded"``):
+    1 where nothing occludes (empty space, an open flat surface), so ao = 1 leaves the albedo
+    and the emission as they are and only crevices and the matter or air hemmed in by denser
+    matter darken. A ``convention="raw"`` VAO grid (1/2 in empty space and on flat surfaces)
+    would darken everything by half: the add-on never asks for one."""
     material = bpy.data.materials.get(name) or bpy.data.materials.new(name)
     tree = material.node_tree
     if tree is None:  # Blender 5 gives new materials a tree; older ones need use_nodes

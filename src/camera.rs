@@ -106,6 +106,67 @@ impl Camera {
         })
     }
 
+    /// This camera moved (and for an orthographic one, scaled) so that the box [lo, hi] fills
+    /// the frame with `margin` of each half of the frame left free, seen along the same
+    /// direction with the same roll, projection and image size, aimed at the box's centre.
+    /// Every corner of the box projects inside the margin, and one touches it.
+    pub fn framing(&self, lo: Vec3, hi: Vec3, margin: f32) -> Result<Camera> {
+        let centre = 0.5 * (lo + hi);
+        let corners: Vec<Vec3> = (0..8)
+            .map(|c| {
+                let pick = |bit: usize, a: f32, b: f32| if c & bit == 0 { a } else { b };
+                Vec3::new(
+                    pick(1, lo.x, hi.x),
+                    pick(2, lo.y, hi.y),
+                    pick(4, lo.z, hi.z),
+                ) - centre
+            })
+            .collect();
+        let (fx, fy) = self.half_extent();
+        let keep = 1.0 - margin;
+        // How far the box reaches towards the camera, and past it at the far side.
+        let near_reach = corners
+            .iter()
+            .map(|q| -q.dot(self.forward))
+            .fold(0.0, f32::max);
+        let size = (hi - lo).length().max(f32::MIN_POSITIVE);
+        let (distance, projection) = match self.projection {
+            Projection::Perspective { .. } => {
+                // Corner q at depth d + q.f must satisfy |q.r| <= fx keep (d + q.f), and the
+                // same for up; the nearest distance meeting all eight.
+                let d = corners
+                    .iter()
+                    .map(|q| {
+                        let need = (q.dot(self.right).abs() / (fx * keep))
+                            .max(q.dot(self.up).abs() / (fy * keep));
+                        need - q.dot(self.forward)
+                    })
+                    .fold(0.0, f32::max);
+                // In front of the box even for a box seen edge-on.
+                (d.max(near_reach + 1e-3 * size), self.projection)
+            }
+            Projection::Orthographic { scale } => {
+                let reach = |axis: Vec3| {
+                    corners
+                        .iter()
+                        .map(|q| q.dot(axis).abs())
+                        .fold(0.0, f32::max)
+                };
+                let grow = (reach(self.right) / (fx * keep)).max(reach(self.up) / (fy * keep));
+                let scale = (scale * grow).max(1e-6 * size);
+                (near_reach + 0.5 * size, Projection::Orthographic { scale })
+            }
+        };
+        Camera::look_at(
+            centre - self.forward * distance,
+            centre,
+            self.up,
+            projection,
+            self.width,
+            self.height,
+        )
+    }
+
     /// The vertical field of view for Blender's lens and sensor width with sensor fit AUTO
     /// (the sensor spans the larger image dimension).
     pub fn fov_y_from_lens(lens_mm: f32, sensor_mm: f32, width: u32, height: u32) -> Result<f32> {

@@ -9,6 +9,7 @@ pub mod classify;
 pub mod error;
 pub mod eval;
 pub mod export;
+pub mod framing;
 pub mod gpu;
 pub mod json;
 pub mod lights;

@@ -78,6 +78,10 @@ enum Command {
         /// For .vdb files: the grid to read.
         #[arg(long)]
         grid: Option<String>,
+        /// Also print a `[classification]` a scene can take: the CT presets in Hounsfield
+        /// units when the file says so, else a ramp on the robust window's raw values.
+        #[arg(long)]
+        suggest: bool,
     },
     /// Render the built-in CT-like phantom into ./occlux-demo/ (no files, network or GPU needed).
     Demo {
@@ -202,6 +206,11 @@ enum Command {
         /// Also write the local variance (grid `ao_variance`).
         #[arg(long)]
         variance: bool,
+        /// What the `ao` grid means: unoccluded (1 in empty space and on an open flat surface,
+        /// as Blender shades) or raw (VAO only: the paper's openness, 1/2 in empty space and on
+        /// a flat interface).
+        #[arg(long, default_value = "unoccluded")]
+        convention: String,
         #[arg(short, long, default_value = "occlux-out")]
         out: PathBuf,
         /// Where to compute: auto picks a hardware GPU adapter if one opens, else the CPU.
@@ -334,7 +343,12 @@ fn run(cli: Cli) -> occlux::Result<()> {
             raw_type,
             raw_spacing,
             grid,
-        } => volume::info::print(&file, &load_options(raw_dims, raw_type, raw_spacing, grid)?),
+            suggest,
+        } => volume::info::print(
+            &file,
+            &load_options(raw_dims, raw_type, raw_spacing, grid)?,
+            suggest,
+        ),
         Command::Bench(args) => bench::run(&args, quiet),
         Command::BenchAo(args) => vao_bench::run(&args, quiet),
         Command::AoAccuracy(args) => vao_accuracy::run(&args, quiet),
@@ -390,6 +404,7 @@ fn run(cli: Cli) -> occlux::Result<()> {
             radius,
             field,
             variance,
+            convention,
             out,
             device,
             compression,
@@ -412,6 +427,7 @@ fn run(cli: Cli) -> occlux::Result<()> {
                     normal_weighted: !combined,
                 },
                 octants,
+                convention: convention.parse()?,
             };
             let vdb = VdbOptions {
                 compression: compression.into(),

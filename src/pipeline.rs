@@ -46,7 +46,11 @@ pub fn run(
         progress::notice(quiet, line);
     }
     let started = Instant::now();
-    let volume = scene.load_volume()?;
+    let loaded = scene.load()?;
+    for line in &loaded.notices {
+        progress::notice(quiet, line);
+    }
+    let (scene, volume) = (&loaded.scene, &loaded.volume);
     let [nx, ny, nz] = volume.dims();
     say(
         quiet,
@@ -58,7 +62,7 @@ pub fn run(
     );
     let bar = Bar::new(quiet, scene.camera.height as u64, "rendering");
     let started = Instant::now();
-    let rendered = render(scene, &volume, &compute, &bar)?;
+    let rendered = render(scene, volume, &compute, &bar)?;
     bar.finish();
     let image = &rendered.image;
     say(
@@ -72,7 +76,7 @@ pub fn run(
     );
     let written = match outputs {
         Outputs::Render => write_render(image, scene, out_dir, stem, options)?,
-        Outputs::Export(vdb) => export(&rendered, scene, &volume, out_dir, stem, options, vdb)?,
+        Outputs::Export(vdb) => export(&rendered, scene, volume, out_dir, stem, options, vdb)?,
     };
     report_written(&written, quiet);
     Ok(())
@@ -335,6 +339,11 @@ pub fn header_metadata(scene: &Scene) -> BTreeMap<String, String> {
     meta.insert("occlux/version".into(), env!("CARGO_PKG_VERSION").into());
     meta.insert("occlux/camera".into(), scene.camera.describe().to_string());
     meta.insert("occlux/method".into(), scene.method.to_json().to_string());
+    // The classification as applied: its window on the volume's values resolved.
+    meta.insert(
+        "occlux/classification".into(),
+        crate::json::tree(&scene.classification).to_string(),
+    );
     meta.insert(
         "occlux/lighting".into(),
         crate::json::tree(&scene.lighting).to_string(),

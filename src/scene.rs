@@ -41,36 +41,82 @@
 use crate::camera::{Camera, Projection};
 use crate::classify::{
     presets, Classification, ControlPoint, TransferFunction, TransferFunction1D,
-    TransferFunction2D, ValueUnits, Widget, DEFAULT_LUT_SIZE,
+    TransferFunction2D, ValueRange, ValueUnits, Widget, DEFAULT_LUT_SIZE,
 };
 use crate::error::{Error, Result};
 use crate::lights::{Light, Lighting};
 pub use crate::registry::Method;
 use crate::volume::{self, phantom, LoadOptions, NonFinite, RawSpec, ScalarType, Volume};
 use glam::Vec3;
-use serde::Deserialize;
+use serde::{Deserialize, Serialize};
 use serde_json::{json, Map, Value};
 use std::path::{Path, PathBuf};
 
-/// A scene ready to run: every field validated.
+/// A scene ready to run: every field validated. What depends on the data (a framed camera, a
+/// content centre, a robust window, Hounsfield presets) is settled by [`Scene::load`].
 #[derive(Clone, Debug, PartialEq)]
 pub struct Scene {
     pub volume: VolumeSource,
     pub classification: Classification,
+    /// The camera; with `framing`, its direction, projection and image size, placed by
+    /// [`Scene::load`].
     pub camera: Camera,
+    /// Place the camera so that the visible content fills the frame (`camera.frame`).
+    pub framing: Option<Framing>,
+    /// A preset given without units: read in Hounsfield units when the file says its values
+    /// are HU ([`crate::volume::SourceInfo::hounsfield`]), normalised otherwise.
+    pub units_from_data: Option<String>,
     pub lighting: Lighting,
     pub method: Method,
 }
+
+/// How [`Scene::load`] frames the visible content.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Framing {
+    /// Share of each half of the frame left free around the content.
+    pub margin: f32,
+}
+
+/// Default `camera.margin`.
+pub const DEFAULT_MARGIN: f32 = 0.05;
+/// The direction a camera without `position` or `direction` looks from (towards the camera):
+/// front right, above, as the examples' cameras.
+pub const DEFAULT_DIRECTION: [f32; 3] = [1.0, -1.0, 0.8];
 
 /// Where the volume comes from and how it is placed in the world.
 #[derive(Clone, Debug, PartialEq)]
 pub struct VolumeSource {
     pub kind: SourceKind,
     pub options: LoadOptions,
-    /// Scale so that the largest bounding-box extent is this many world units.
+    /// Scale so that the largest bounding-box extent is this many world units (`fit = "auto"`:
+    /// [`AUTO_FIT`]).
     pub fit: Option<f32>,
-    /// Move the bounding box's centre here.
-    pub centre: Option<Vec3>,
+    /// Where the bounding box's centre (or the visible content's) goes.
+    pub centre: Option<Centre>,
+}
+
+/// `volume.fit = "auto"`: the longest side, in world units, that the presets' extinctions are
+/// made for.
+pub const AUTO_FIT: f32 = 2.0;
+
+/// What `volume.centre` moves, and where.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Centre {
+    /// The bounding box's centre to this point.
+    Point([f32; 3]),
+    /// The visible content's centre to the origin (`centre = "content"`).
+    Content,
+}
+
+/// A scene with its volume loaded and everything that depends on the data settled.
+pub struct Loaded {
+    /// The scene with its camera framed, its classification's window resolved (in the EXR
+    /// header as `occlux/classification`) and Hounsfield presets chosen.
+    pub scene: Scene,
+    pub volume: Volume,
+    /// What was decided from the data, one line each, for the user.
+    pub notices: Vec<String>,
 }
 
 #[derive(Clone, Debug, PartialEq)]
@@ -117,12 +163,30 @@ impl Scene {
         })
     }
 
-    /// Loads (or generates) the volume and places it in the world.
+    /// Loads (or generates) the volume and places it in the world, as [`Scene::load`] does.
     pub fn load_volume(&self) -> Result<Volume> {
+        Ok(self.load()?.volume)
+    }
+
+    /// Loads (or generates) the volume, places it in the world, and settles what depends on
+    /// the data: Hounsfield presets, the classification's window, the content centre and the
+    /// framed camera, with a notice for each and for an optical depth too small or large to
+    /// show (see [`crate::framing`]).
+    pub fn load(&self) -> Result<Loaded> {
+        let (volume, hounsfield) = self.load_placed()?;
+        crate::framing::settle(self, volume, hounsfield.as_deref())
+    }
+
+    /// The volume scaled by `fit` and moved to a `centre` point, and why its values are HU
+    /// when its file says so.
+    fn load_placed(&self) -> Result<(Volume, Option<String>)> {
         let src = &self.volume;
-        let mut volume = match &src.kind {
-            SourceKind::File(path) => volume::load(path, &src.options)?,
-            SourceKind::Phantom { name, size } => phantom::by_name(name, *size)?,
+        let (mut volume, hounsfield) = match &src.kind {
+            SourceKind::File(path) => {
+                let (volume, info) = volume::load_with_info(path, &src.options)?;
+                (volume, info.hounsfield)
+            }
+            SourceKind::Phantom { name, size } => (phantom::by_name(name, *size)?, None),
         };
         if let Some(fit) = src.fit {
             let (lo, hi) = volume.bounds();
@@ -134,10 +198,10 @@ impl Scene {
                 volume.into_values(),
             )?;
         }
-        if let Some(centre) = src.centre {
-            volume = volume.with_centre(centre);
+        if let Some(Centre::Point(centre)) = src.centre {
+            volume = volume.with_centre(Vec3::from(centre));
         }
-        Ok(volume)
+        Ok((volume, hounsfield))
     }
 }
 
@@ -167,8 +231,8 @@ struct VolumeSection {
     size: Option<usize>,
     grid: Option<String>,
     raw: Option<RawSection>,
-    fit: Option<f32>,
-    centre: Option<[f32; 3]>,
+    fit: Option<NumberOr<f32>>,
+    centre: Option<NumberOr<[f32; 3]>>,
     /// Substitute for NaN/infinite values; absent: such values are an error.
     replace_non_finite: Option<f32>,
     memory_budget_gib: Option<f64>,
@@ -190,6 +254,28 @@ struct RawSection {
     header_bytes: u64,
 }
 
+/// A value or a word (`fit = "auto"`, `centre = "content"`, `frame = "content"`).
+#[derive(Deserialize)]
+#[serde(untagged)]
+enum NumberOr<T> {
+    Value(T),
+    Word(String),
+}
+
+impl<T> NumberOr<T> {
+    /// The value, or None for `word`; any other word is an error naming `key`.
+    fn value_or(self, key: &str, word: &str) -> Result<Option<T>> {
+        match self {
+            NumberOr::Value(v) => Ok(Some(v)),
+            NumberOr::Word(w) if w == word => Ok(None),
+            NumberOr::Word(w) => Err(Error::param(
+                key,
+                format!("expected a value or \"{word}\", got \"{w}\""),
+            )),
+        }
+    }
+}
+
 fn unit_spacing() -> [f32; 3] {
     [1.0; 3]
 }
@@ -198,8 +284,8 @@ fn unit_spacing() -> [f32; 3] {
 #[serde(deny_unknown_fields)]
 struct ClassificationSection {
     preset: Option<String>,
-    #[serde(default)]
-    units: ValueUnits,
+    units: Option<ValueUnits>,
+    range: Option<ValueRange>,
     points: Option<Vec<ControlPoint>>,
     widgets: Option<Vec<Widget>>,
     #[serde(default = "one")]
@@ -212,7 +298,8 @@ impl Default for ClassificationSection {
     fn default() -> Self {
         Self {
             preset: None,
-            units: ValueUnits::default(),
+            units: None,
+            range: None,
             points: None,
             widgets: None,
             density_scale: 1.0,
@@ -233,7 +320,11 @@ fn default_lut_size() -> usize {
 struct CameraSection {
     #[serde(default)]
     projection: ProjectionKind,
-    position: [f32; 3],
+    position: Option<[f32; 3]>,
+    /// From the target towards the camera, for a framed camera.
+    direction: Option<[f32; 3]>,
+    frame: Option<String>,
+    margin: Option<f32>,
     #[serde(default)]
     target: [f32; 3],
     #[serde(default = "z_up")]
@@ -298,10 +389,14 @@ enum LightSection {
 
 impl SceneFile {
     fn resolve(self, base: &Path) -> Result<Scene> {
+        let (classification, units_from_data) = self.classification.resolve()?;
+        let (camera, framing) = self.camera.resolve()?;
         let scene = Scene {
             volume: self.volume.resolve(base)?,
-            classification: self.classification.resolve()?,
-            camera: self.camera.resolve()?,
+            classification,
+            camera,
+            framing,
+            units_from_data,
             lighting: Lighting {
                 lights: self
                     .lights
@@ -358,7 +453,11 @@ impl VolumeSection {
                 ))
             }
         };
-        if let Some(fit) = self.fit {
+        let fit = match self.fit {
+            Some(fit) => Some(fit.value_or("volume.fit", "auto")?.unwrap_or(AUTO_FIT)),
+            None => None,
+        };
+        if let Some(fit) = fit {
             if !(fit > 0.0 && fit.is_finite()) {
                 return Err(Error::param(
                     "volume.fit",
@@ -366,8 +465,14 @@ impl VolumeSection {
                 ));
             }
         }
-        let centre = self.centre.map(Vec3::from);
-        if centre.is_some_and(|c| !c.is_finite()) {
+        let centre = match self.centre {
+            Some(c) => Some(
+                c.value_or("volume.centre", "content")?
+                    .map_or(Centre::Content, Centre::Point),
+            ),
+            None => None,
+        };
+        if matches!(centre, Some(Centre::Point(c)) if !Vec3::from(c).is_finite()) {
             return Err(Error::param("volume.centre", "must be finite"));
         }
         let mut options = LoadOptions {
@@ -404,29 +509,40 @@ impl VolumeSection {
         Ok(VolumeSource {
             kind,
             options,
-            fit: self.fit,
+            fit,
             centre,
         })
     }
 }
 
 impl ClassificationSection {
-    fn resolve(self) -> Result<Classification> {
-        let mut c = match (self.preset, self.points, self.widgets) {
-            (Some(name), None, None) => presets::preset(&name)?,
-            (None, Some(points), None) => Classification {
-                tf: TransferFunction::OneD(TransferFunction1D::new(points)?),
-                units: self.units,
-                density_scale: 1.0,
-                lut_size: DEFAULT_LUT_SIZE,
-            },
-            (None, None, Some(widgets)) => Classification {
-                tf: TransferFunction::TwoD(TransferFunction2D::new(widgets)?),
-                units: self.units,
-                density_scale: 1.0,
-                lut_size: DEFAULT_LUT_SIZE,
-            },
-            (None, None, None) => presets::preset("ct-bone")?,
+    /// The classification, and the preset to read in Hounsfield units if the data says so
+    /// (a preset without `units`).
+    fn resolve(self) -> Result<(Classification, Option<String>)> {
+        let units = self.units.unwrap_or_default();
+        let user = |tf| Classification {
+            tf,
+            units,
+            density_scale: 1.0,
+            lut_size: DEFAULT_LUT_SIZE,
+            range: ValueRange::default(),
+        };
+        let (mut c, from_data) = match (self.preset, self.points, self.widgets) {
+            (Some(name), None, None) => {
+                let c = presets::preset_in(&name, units)?;
+                let from_data =
+                    (self.units.is_none() && presets::HU_PRESETS.contains(&&*name)).then_some(name);
+                (c, from_data)
+            }
+            (None, Some(points), None) => (
+                user(TransferFunction::OneD(TransferFunction1D::new(points)?)),
+                None,
+            ),
+            (None, None, Some(widgets)) => (
+                user(TransferFunction::TwoD(TransferFunction2D::new(widgets)?)),
+                None,
+            ),
+            (None, None, None) => (presets::preset("ct-bone")?, None),
             _ => {
                 return Err(Error::param(
                     "classification",
@@ -434,15 +550,79 @@ impl ClassificationSection {
                 ))
             }
         };
+        if let Some(range) = self.range {
+            if c.units != ValueUnits::Normalized {
+                return Err(Error::param(
+                    "classification.range",
+                    "only for normalised units: raw and HU values need no window",
+                ));
+            }
+            c.range = range;
+        }
         c.density_scale = self.density_scale;
         c.lut_size = self.lut_size;
         c.validate()?;
-        Ok(c)
+        Ok((c, from_data))
     }
 }
 
 impl CameraSection {
-    fn resolve(self) -> Result<Camera> {
+    /// The camera, and how to frame it once the volume is known: without `position` the
+    /// content is framed from `direction`; `frame = "content"` frames it from `position`'s
+    /// direction.
+    fn resolve(self) -> Result<(Camera, Option<Framing>)> {
+        let target = Vec3::from(self.target);
+        let frame = match self.frame.as_deref() {
+            None => self.position.is_none(),
+            Some("content") => true,
+            Some("none") => false,
+            Some(other) => {
+                return Err(Error::param(
+                    "camera.frame",
+                    format!("expected \"content\" or \"none\", got \"{other}\""),
+                ))
+            }
+        };
+        let position = match (self.position, self.direction) {
+            (Some(_), Some(_)) => {
+                return Err(Error::param(
+                    "camera.direction",
+                    "give position or direction, not both",
+                ))
+            }
+            (Some(p), None) => Vec3::from(p),
+            (None, direction) if frame => {
+                let d = Vec3::from(direction.unwrap_or(DEFAULT_DIRECTION));
+                if !d.is_finite() || d.length() == 0.0 {
+                    return Err(Error::param(
+                        "camera.direction",
+                        "must be a finite non-zero vector",
+                    ));
+                }
+                // Provisional: `Scene::load` moves it to frame the content.
+                target + d.normalize() * 4.0
+            }
+            (None, _) => {
+                return Err(Error::param(
+                    "camera.position",
+                    "needed unless the camera frames the content (frame = \"content\")",
+                ))
+            }
+        };
+        let margin = self.margin.unwrap_or(DEFAULT_MARGIN);
+        if !(0.0..0.5).contains(&margin) {
+            return Err(Error::param(
+                "camera.margin",
+                format!("must be in [0, 0.5), got {margin}"),
+            ));
+        }
+        if self.margin.is_some() && !frame {
+            return Err(Error::param(
+                "camera.margin",
+                "only for a framed camera (frame = \"content\", or no position)",
+            ));
+        }
+        let framing = frame.then_some(Framing { margin });
         let projection = match self.projection {
             ProjectionKind::Perspective => {
                 if self.ortho_scale.is_some() {
@@ -486,14 +666,15 @@ impl CameraSection {
                 }
             }
         };
-        Camera::look_at(
-            Vec3::from(self.position),
-            Vec3::from(self.target),
+        let camera = Camera::look_at(
+            position,
+            target,
             Vec3::from(self.up),
             projection,
             self.width,
             self.height,
-        )
+        )?;
+        Ok((camera, framing))
     }
 }
 

@@ -120,6 +120,63 @@ fn info_describes_a_real_volume() {
     assert!(text.contains("256 x 256 x 128"), "{text}");
     assert!(text.contains("uint8"), "{text}");
     assert!(text.contains("histogram"), "{text}");
+    assert!(text.contains("units     not stated by the file"), "{text}");
+    assert!(text.contains("window    0 .. "), "{text}");
+}
+
+/// `occlux info --suggest` prints a classification that a scene takes as it is, and that
+/// shows the volume when rendered with the defaults (framed, fit = "auto").
+#[test]
+fn info_suggests_a_classification_a_scene_takes() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../shared/data/scivis/tooth.nrrd"
+    );
+    let run = occlux(&["info", path, "--suggest"]);
+    assert!(
+        run.status.success(),
+        "{}",
+        String::from_utf8_lossy(&run.stderr)
+    );
+    let text = String::from_utf8_lossy(&run.stdout);
+    let block = &text[text.find("[classification]").expect("a suggestion")..];
+    let scene = dir.path().join("suggested.toml");
+    std::fs::write(
+        &scene,
+        format!(
+            "[volume]\npath = {path:?}\nfit = \"auto\"\n{block}\n[camera]\nwidth = 48\n\
+             height = 48\n[[lights]]\ntype = \"ambient\"\nradiance = 1\n[render]\n\
+             method = \"unshaded\"\n"
+        ),
+    )
+    .unwrap();
+    let out = dir.path().join("out");
+    let run = occlux(&[
+        "render",
+        scene.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+        "--device",
+        "cpu",
+    ]);
+    let notices = String::from_utf8_lossy(&run.stderr);
+    assert!(run.status.success(), "{notices}");
+    assert!(
+        notices.contains("classification: on raw values"),
+        "{notices}"
+    );
+    assert!(
+        notices.contains("camera: frames the visible content"),
+        "{notices}"
+    );
+    let alpha: Vec<f32> = exr_layer(&out.join("suggested.exr"), "beauty")
+        .into_iter()
+        .find(|(c, _)| c.ends_with('A'))
+        .unwrap()
+        .1;
+    let covered = alpha.iter().filter(|a| **a > 0.05).count() as f64 / alpha.len() as f64;
+    assert!(covered > 0.05 && covered < 0.9, "{covered}");
 }
 
 #[test]
@@ -407,10 +464,12 @@ fn ao_writes_the_grids_slice_and_timing_the_library_computes() {
         variance: true,
     };
     let ao = vao::ao_volume(&Compute::Cpu, &field, &params, &NoProgress).unwrap();
+    // The grid means 1 = unoccluded: VAO's raw openness doubled up to 1.
+    let openness = occlux::ao::unoccluded(ao.openness.clone()).unwrap();
     let file = std::io::BufReader::new(std::fs::File::open(dir.join("ball-ao.vdb")).unwrap());
     let mut reader = vdb_rs::VdbReader::new(file).unwrap();
     for (name, want) in [
-        ("ao", &ao.openness),
+        ("ao", &openness),
         ("ao_variance", ao.variance.as_ref().unwrap()),
     ] {
         let grid = reader.read_grid::<f32>(name).unwrap();
@@ -426,6 +485,7 @@ fn ao_writes_the_grids_slice_and_timing_the_library_computes() {
     let record: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(dir.join("ball-ao.json")).unwrap()).unwrap();
     assert_eq!(record["method"], "gauss");
+    assert_eq!(record["convention"], "unoccluded");
     assert_eq!(record["radius_voxels"], 3);
     assert!(record["ao_ms"].as_f64().unwrap() > 0.0);
     let png = png::Decoder::new(std::io::BufReader::new(
@@ -445,6 +505,11 @@ fn ao_writes_the_grids_slice_and_timing_the_library_computes() {
         (vec!["--method", "median"], "median"),
         (vec!["--radius", "0"], "radius"),
         (vec!["--field", "colour"], "colour"),
+        (vec!["--convention", "blender"], "convention"),
+        (
+            vec!["--method", "sweep", "--convention", "raw"],
+            "convention",
+        ),
     ] {
         let mut all = vec![
             "ao",

@@ -1621,3 +1621,53 @@ fn inputs_found_by_fuzzing_are_refused_by_name() {
         assert_mentions(&failure(&folder.join(name), &opts()), words);
     }
 }
+
+/// Files that say their values are Hounsfield units are recognised: a CT's DICOM rescale on
+/// integer data or a description naming HU in NIfTI, `sample units` in NRRD; other rescales,
+/// float data with the same intercept, and files without a word about it are not.
+#[test]
+fn files_that_say_their_values_are_hounsfield_units_are_recognised() {
+    let dir = tempfile::tempdir().unwrap();
+    let nifti = |name: &str, t: Ty, slope: f32, inter: f32, descrip: &[u8]| {
+        let values = values_for(t.scalar, 8);
+        let mut header = Nifti::new([2, 2, 2], t);
+        header.slope = slope;
+        header.inter = inter;
+        let mut bytes = header.bytes(&encode(t.scalar, &values, false));
+        bytes[148..148 + descrip.len()].copy_from_slice(descrip);
+        let path = dir.path().join(name);
+        std::fs::write(&path, bytes).unwrap();
+        load_with_info(&path, &opts()).unwrap().1.hounsfield
+    };
+    let int16 = ty(ScalarType::I16);
+    let why = nifti("ct.nii", int16, 1.0, -1024.0, b"").expect("a CT rescale");
+    assert!(why.contains("scl_inter -1024"), "{why}");
+    assert!(nifti("mr.nii", int16, 2.0, -1024.0, b"").is_none());
+    assert!(nifti("float.nii", ty(ScalarType::F32), 1.0, -1024.0, b"").is_none());
+    assert!(nifti("plain.nii", int16, 1.0, 0.0, b"T1 MPRAGE").is_none());
+    let why = nifti("described.nii", int16, 0.0, 0.0, b"CT abdomen (HU)").expect("descrip");
+    assert!(why.contains("descrip"), "{why}");
+    // "HU" only as a word: not inside another.
+    assert!(nifti("word.nii", int16, 0.0, 0.0, b"SHUTTLE scan").is_none());
+
+    let nrrd = |name: &str, units: Option<&str>| {
+        let mut fields = vec![
+            ("type", "short"),
+            ("dimension", "3"),
+            ("sizes", "2 2 2"),
+            ("encoding", "raw"),
+            ("endian", "little"),
+        ];
+        if let Some(u) = units {
+            fields.push(("sample units", u));
+        }
+        let path = small_nrrd(dir.path(), name, &fields, &[0u8; 16]);
+        load_with_info(&path, &opts()).unwrap().1.hounsfield
+    };
+    assert!(nrrd("hu.nrrd", Some("HU"))
+        .unwrap()
+        .contains("sample units"));
+    assert!(nrrd("hounsfield.nrrd", Some("Hounsfield units")).is_some());
+    assert!(nrrd("mm.nrrd", Some("mm")).is_none());
+    assert!(nrrd("none.nrrd", None).is_none());
+}

@@ -306,3 +306,153 @@ fn every_example_scene_parses() {
     }
     assert!(parsed >= 9, "{parsed} examples");
 }
+
+/// The keys that let the data decide: `fit = "auto"`, `centre = "content"`, a camera without a
+/// position (framed from a direction), `frame = "content"` with a position, `margin`; preset
+/// units and `range`. Misuses are errors naming the key.
+#[test]
+fn data_driven_keys_parse_and_misuses_name_the_key() {
+    use occlux::classify::{ValueRange, ValueUnits, Window};
+    use occlux::scene::{Centre, Framing, AUTO_FIT, DEFAULT_MARGIN};
+    let scene = parse(
+        r#"
+[volume]
+phantom = "ct"
+fit = "auto"
+centre = "content"
+[classification]
+preset = "ct-bone"
+range = [10, 200]
+[camera]
+width = 64
+height = 32
+"#,
+    )
+    .unwrap();
+    assert_eq!(scene.volume.fit, Some(AUTO_FIT));
+    assert_eq!(scene.volume.centre, Some(Centre::Content));
+    assert_eq!(
+        scene.framing,
+        Some(Framing {
+            margin: DEFAULT_MARGIN
+        })
+    );
+    assert_eq!(
+        scene.classification.range,
+        ValueRange::Window(Window {
+            lo: 10.0,
+            hi: 200.0,
+            cut: None
+        })
+    );
+    // A preset without units may become its HU form; with units it is what it says.
+    assert_eq!(scene.units_from_data.as_deref(), Some("ct-bone"));
+    let hu = parse(
+        "[volume]\nphantom = \"ct\"\n[classification]\npreset = \"ct-soft-tissue\"\nunits = \"hu\"\n\
+         [camera]\nposition = [0, -4, 0]\n",
+    )
+    .unwrap();
+    assert_eq!(hu.classification.units, ValueUnits::Hu);
+    assert_eq!(hu.units_from_data, None);
+    assert!(hu.framing.is_none());
+    let framed = parse(
+        "[volume]\nphantom = \"ct\"\n[camera]\nposition = [0, -4, 0]\nframe = \"content\"\nmargin = 0.2\n",
+    )
+    .unwrap();
+    assert_eq!(framed.framing, Some(Framing { margin: 0.2 }));
+    assert!((framed.camera.forward - Vec3::Y).length() < 1e-6);
+
+    for (text, key) in [
+        ("[volume]\nphantom = \"ct\"\nfit = \"big\"\n[camera]\n", "volume.fit"),
+        ("[volume]\nphantom = \"ct\"\ncentre = \"middle\"\n[camera]\n", "volume.centre"),
+        ("[volume]\nphantom = \"ct\"\n[camera]\nframe = \"none\"\n", "camera.position"),
+        ("[volume]\nphantom = \"ct\"\n[camera]\nframe = \"box\"\n", "camera.frame"),
+        (
+            "[volume]\nphantom = \"ct\"\n[camera]\nposition = [0, -4, 0]\ndirection = [0, 1, 0]\n",
+            "camera.direction",
+        ),
+        ("[volume]\nphantom = \"ct\"\n[camera]\ndirection = [0, 0, 0]\n", "camera.direction"),
+        ("[volume]\nphantom = \"ct\"\n[camera]\nmargin = 0.5\n", "camera.margin"),
+        (
+            "[volume]\nphantom = \"ct\"\n[camera]\nposition = [0, -4, 0]\nmargin = 0.1\n",
+            "camera.margin",
+        ),
+        (
+            "[volume]\nphantom = \"ct\"\n[classification]\npreset = \"mri\"\nunits = \"hu\"\n[camera]\n",
+            "classification.units",
+        ),
+        (
+            "[volume]\nphantom = \"ct\"\n[classification]\npreset = \"ct-bone\"\nunits = \"raw\"\n[camera]\n",
+            "classification.units",
+        ),
+        (
+            "[volume]\nphantom = \"ct\"\n[classification]\npreset = \"ct-bone\"\nrange = [5, 1]\n[camera]\n",
+            "classification.range",
+        ),
+        (
+            "[volume]\nphantom = \"ct\"\n[classification]\npreset = \"ct-bone\"\nunits = \"hu\"\nrange = \"full\"\n[camera]\n",
+            "classification.range",
+        ),
+    ] {
+        let err = error_of(text);
+        assert!(err.contains(key), "{key}: {err}");
+    }
+}
+
+/// A preset without units reads a file's Hounsfield units when the file says so; the window of
+/// normalised units is resolved into the loaded scene (and so into the EXR header).
+#[test]
+fn loading_settles_hounsfield_presets_and_the_window() {
+    use occlux::classify::{ValueRange, ValueUnits};
+    let dir = tempfile::tempdir().unwrap();
+    // An int16 NRRD in HU: air -1000, water 0, bone 1200.
+    let values: Vec<i16> = (0..4096)
+        .map(|i| match i % 8 {
+            0..=4 => -1000,
+            5 | 6 => 0,
+            _ => 1200,
+        })
+        .collect();
+    let bytes: Vec<u8> = values.iter().flat_map(|v| v.to_le_bytes()).collect();
+    let path = dir.path().join("ct.nrrd");
+    let header = "NRRD0004\ntype: short\ndimension: 3\nsizes: 16 16 16\nencoding: raw\n\
+                  endian: little\nsample units: HU\n\n";
+    std::fs::write(&path, [header.as_bytes(), &bytes].concat()).unwrap();
+    let scene = |units: &str| {
+        Scene::parse(
+            &format!(
+                "[volume]\npath = {path:?}\n[classification]\npreset = \"ct-bone\"\n{units}\n\
+                 [camera]\nposition = [0, -40, 0]\ntarget = [8, 8, 8]\n"
+            ),
+            dir.path(),
+        )
+        .unwrap()
+    };
+    let loaded = scene("").load().unwrap();
+    assert_eq!(loaded.scene.classification.units, ValueUnits::Hu);
+    assert!(
+        loaded
+            .notices
+            .iter()
+            .any(|n| n.contains("Hounsfield") && n.contains("sample units")),
+        "{:?}",
+        loaded.notices
+    );
+    let lut = loaded.scene.classification.bake(&loaded.volume);
+    assert_eq!(
+        lut.lookup(0.0, 0.0).sigma_t,
+        0.0,
+        "water is clear under ct-bone"
+    );
+    assert!(lut.lookup(1200.0, 0.0).sigma_t > 10.0);
+    // Normalised units stated: the robust window, resolved into the scene.
+    let normalised = scene("units = \"normalized\"").load().unwrap();
+    match normalised.scene.classification.range {
+        ValueRange::Window(w) => assert_eq!((w.lo, w.hi), (-1000.0, 1200.0)),
+        other => panic!("{other:?}"),
+    }
+    assert!(normalised
+        .notices
+        .iter()
+        .any(|n| n.contains("units = \"hu\"")));
+}

@@ -164,6 +164,13 @@ fn ao_volumes_by_sweep_refuse_what_they_cannot_compute() {
             },
             "octants",
         ),
+        (
+            AoVolumeParams {
+                convention: occlux::ao::AoConvention::Raw,
+                ..base
+            },
+            "convention",
+        ),
     ] {
         let err = ao_volume(
             &Compute::Cpu,

@@ -487,3 +487,259 @@ fn ao_shading_scales_the_ambient_light_by_the_openness() {
         assert_eq!(*z, [0.0, 0.0, 0.0, 0.0], "a factor of 0 clears the volume");
     }
 }
+
+/// A linear classification of values 0..1 onto sigma_t 0..40 per unit: opaque in a voxel or
+/// two of 1/24.
+fn opaque() -> occlux::classify::Classification {
+    occlux::scene::Scene::parse(
+        "[volume]\nphantom = \"sphere\"\nsize = 8\n[classification]\nunits = \"raw\"\n\
+         points = [{ value = 0, sigma_t = 0 }, { value = 1, sigma_t = 40 }]\n\
+         [camera]\nposition = [3, -3, 2]\nwidth = 8\nheight = 8\n\
+         [[lights]]\ntype = \"ambient\"\nradiance = 1\n",
+        std::path::Path::new("."),
+    )
+    .unwrap()
+    .classification
+}
+
+/// The `ao` grid `occlux ao` writes for `volume` classified by [`opaque`], read back from the
+/// VDB file.
+fn written_ao(volume: &Volume, method: &str, convention: &str) -> Volume {
+    use occlux::ao::{ao_volume, AoVolumeParams};
+    use occlux::export::vdb::VdbOptions;
+    let params = AoVolumeParams {
+        method: method.parse().unwrap(),
+        radius: 4,
+        convention: convention.parse().unwrap(),
+        ..Default::default()
+    };
+    let ao = ao_volume(&Compute::Cpu, volume, &opaque(), &params, &NoProgress).unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let record = serde_json::json!({ "method": method });
+    occlux::pipeline::write_ao(&ao, &record, dir.path(), "t", &VdbOptions::default()).unwrap();
+    let file = std::fs::File::open(dir.path().join("t-ao.vdb")).unwrap();
+    let mut reader = vdb_rs::VdbReader::new(std::io::BufReader::new(file)).unwrap();
+    let grid = reader.read_grid::<f32>("ao").unwrap();
+    let [nx, ny, nz] = volume.dims();
+    let mut values = vec![0.0f32; nx * ny * nz]; // inactive voxels read 0
+    for (p, v, _) in grid.iter() {
+        values[p.x as usize + nx * (p.y as usize + ny * p.z as usize)] = v;
+    }
+    assert_eq!(
+        values,
+        ao.openness.values(),
+        "{method}: the file holds the grid"
+    );
+    Volume::new(volume.dims(), volume.spacing(), volume.origin(), values).unwrap()
+}
+
+const AO_METHODS: [&str; 7] = [
+    "cdf",
+    "gauss",
+    "gauss-exact",
+    "penner",
+    "exact",
+    "sweep",
+    "sweep-physical",
+];
+
+/// Minimum, mean and maximum of `ao` over the voxels where `pick` holds.
+fn summary(ao: &Volume, pick: impl Fn([usize; 3]) -> bool) -> [f32; 3] {
+    let [nx, ny, nz] = ao.dims();
+    let (mut lo, mut sum, mut hi, mut n) = (f32::INFINITY, 0.0f64, f32::NEG_INFINITY, 0);
+    for k in 0..nz {
+        for j in 0..ny {
+            for i in 0..nx {
+                if pick([i, j, k]) {
+                    let v = ao.at(i, j, k);
+                    (lo, hi, sum, n) = (lo.min(v), hi.max(v), sum + v as f64, n + 1);
+                }
+            }
+        }
+    }
+    assert!(n > 0);
+    [lo, (sum / n as f64) as f32, hi]
+}
+
+#[test]
+fn written_ao_grids_read_one_in_empty_space_and_less_by_matter_for_every_method() {
+    // The sweep paper's box and sphere on a floor, 48^3 voxels of 1/24: the floor's top layer
+    // is k = 16 (coverage 0.8), the air above it starts at k = 17, the ball's top is near
+    // k = 31; the ball touches the floor at (0.4, 0), about i = 33, j = 23.5.
+    let scene = phantom::box_and_sphere([48; 3]).unwrap();
+    // A ball of radius 0.1 alone: from its far air it covers under 0.2 % of the directions.
+    let ball = phantom::sphere(48, 0.1).unwrap();
+    let open_air = |[_, _, k]: [usize; 3]| k >= 38; // 7 voxels above anything
+    let far_air = |[i, j, k]: [usize; 3]| {
+        let c = |n: usize| (n as f32 + 0.5) / 24.0 - 1.0;
+        Vec3::new(c(i), c(j), c(k)).length() >= 1.2
+    };
+    // The floor's top layer and the air on it, R + 2 voxels from the objects (|y| >= 0.5) and
+    // the faces; the floor's top layer where the ball touches it.
+    let floor = |layer| {
+        move |[i, j, k]: [usize; 3]| k == layer && (6..42).contains(&i) && (6..12).contains(&j)
+    };
+    let crease = |[i, j, k]: [usize; 3]| (31..36).contains(&i) && (21..27).contains(&j) && k == 16;
+    let matter = |[i, j, k]: [usize; 3]| scene.at(i, j, k) >= 0.5;
+    // The exact count's air on a flat floor: the ball's share above the floor, all of it tied.
+    let (mut above, mut all) = (0, 0);
+    for dk in -4i32..=4 {
+        for dj in -4i32..=4 {
+            for di in -4i32..=4 {
+                if di * di + dj * dj + dk * dk <= 16 {
+                    all += 1;
+                    above += (dk >= 0) as usize;
+                }
+            }
+        }
+    }
+    let air_share = above as f32 / all as f32;
+    for method in AO_METHODS {
+        let ao = written_ao(&scene, method, "unoccluded");
+        assert!(
+            ao.values().iter().all(|v| (0.0..=1.0).contains(v)),
+            "{method}"
+        );
+        let air = summary(&ao, open_air);
+        let alone = summary(&written_ao(&ball, method, "unoccluded"), far_air);
+        let (flat, flat_air) = (summary(&ao, floor(16)), summary(&ao, floor(17)));
+        let (creased, matter) = (summary(&ao, crease), summary(&ao, matter));
+        println!(
+            "{method}: open air {air:?}, far from a lone ball {alone:?}, floor's top layer \
+             {flat:?}, the air on it {flat_air:?}, crease {creased:?}, matter {matter:?}"
+        );
+        match method {
+            "sweep" => {
+                // The cosine-weighted hemisphere about the normal.
+                assert!(air[0] >= 0.98 && alone[0] >= 0.99, "{method}");
+                assert!(flat[1] > 0.8 && creased[1] < 0.5, "{method}");
+                assert!(matter[1] < 0.2, "{method}: inside an opaque surface");
+            }
+            "sweep-physical" => {
+                // The mean transmittance over all directions: 1 where nothing occludes (exactly
+                // at least 0.998 in the lone ball's far air; the lattice walk's streaks darken
+                // single voxels by up to 0.06), at most 1/2 on an opaque floor (the floor hides
+                // the lower half, grazing steps through its top layer some more), darker by
+                // matter.
+                assert!(alone[0] >= 0.94 && alone[1] >= 0.99, "{method}: {alone:?}");
+                assert!(
+                    flat_air[2] <= 0.5 && flat_air[1] > 0.35,
+                    "{method}: {flat_air:?}"
+                );
+                assert!(creased[2] < 0.1 && matter[1] < 0.1, "{method}");
+            }
+            _ => {
+                let raw = written_ao(&scene, method, "raw");
+                println!(
+                    "{method} raw: open air {:?}, floor's top layer {:?}, the air on it {:?}, \
+                     crease {:?}",
+                    summary(&raw, open_air),
+                    summary(&raw, floor(16)),
+                    summary(&raw, floor(17)),
+                    summary(&raw, crease)
+                );
+                // VAO: a voxel whose whole tangent sphere is empty reads exactly 1.
+                assert_eq!(air, [1.0; 3], "{method}");
+                assert_eq!(alone, [1.0; 3], "{method}");
+                // Where the ball touches the floor, the floor's surface is occluded.
+                assert!(creased[1] < 0.95 && creased[1] < flat[1] - 0.05, "{method}");
+                if method == "penner" {
+                    // Its bound counts the whole box as occluding: too dark even when flat.
+                    assert!(flat[1] < 0.6, "{method}");
+                } else {
+                    // An unoccluded flat surface reads 1, the air on it the ball's empty share.
+                    assert_eq!(flat, [1.0; 3], "{method}");
+                    assert!(flat_air[2] <= air_share + 0.02, "{method}: {air_share}");
+                }
+                if method == "exact" {
+                    assert!(
+                        flat_air.iter().all(|v| (v - air_share).abs() < 1e-6),
+                        "{method}: {air_share}"
+                    );
+                }
+            }
+        }
+    }
+}
+
+#[test]
+fn the_raw_convention_keeps_vaos_openness_and_the_default_doubles_it_up_to_one() {
+    let scene = phantom::box_and_sphere([48; 3]).unwrap();
+    let field = ScalarField::new(&scene, &opaque(), FieldKind::Extinction).unwrap();
+    for estimator in Estimator::ALL {
+        let method = estimator.name();
+        let params = VaoParams {
+            radius: 4,
+            estimator,
+            variance: false,
+        };
+        let paper = vao::ao_volume(&Compute::Cpu, &field, &params, &NoProgress).unwrap();
+        let raw = written_ao(&scene, method, "raw");
+        let unoccluded = written_ao(&scene, method, "unoccluded");
+        // The paper's convention, unchanged: 1/2 in empty space and on a flat interface.
+        assert!(raw.values() == paper.openness.values(), "{method}");
+        assert_eq!(raw.at(20, 20, 44), 0.5, "{method}: open air");
+        if estimator == Estimator::Exact {
+            assert_eq!(raw.at(20, 8, 16), 0.5, "{method}: a flat floor");
+        }
+        for (r, u) in raw.values().iter().zip(unoccluded.values()) {
+            assert!(*u == (2.0 * r).min(1.0), "{method}: {r} -> {u}");
+        }
+    }
+    // The sweeps have no raw form: asking for one is an error that names it.
+    for method in ["sweep", "sweep-physical"] {
+        let params = occlux::ao::AoVolumeParams {
+            method: method.parse().unwrap(),
+            convention: occlux::ao::AoConvention::Raw,
+            ..Default::default()
+        };
+        let err = params.validate().unwrap_err().to_string();
+        assert!(err.contains("convention"), "{err}");
+    }
+    assert!("blender"
+        .parse::<occlux::ao::AoConvention>()
+        .unwrap_err()
+        .to_string()
+        .contains("unoccluded, raw"));
+}
+
+#[test]
+fn ao_shaded_images_shade_with_the_raw_openness_whatever_the_grids_convention() {
+    use occlux::pipeline;
+    use occlux::scene::Scene;
+    let render = |convention: &str| {
+        let scene = Scene::parse(
+            &format!(
+                "[volume]\nphantom = \"box-sphere\"\nsize = 24\n[classification]\nunits = \"raw\"\n\
+                 points = [{{ value = 0, sigma_t = 0 }}, {{ value = 1, sigma_t = 20 }}]\n\
+                 [camera]\nposition = [3, -3, 2]\nwidth = 12\nheight = 10\n\
+                 [[lights]]\ntype = \"ambient\"\nradiance = 1\n\
+                 [render]\nmethod = \"ao\"\nao_method = \"gauss\"\nao_radius = 3\n\
+                 ao_convention = \"{convention}\"\n"
+            ),
+            std::path::Path::new("."),
+        )
+        .unwrap();
+        let volume = scene.load_volume().unwrap();
+        pipeline::render(&scene, &volume, &Compute::Cpu, &NoProgress).unwrap()
+    };
+    let (unoccluded, raw) = (render("unoccluded"), render("raw"));
+    assert!(
+        unoccluded.image.rgba == raw.image.rgba,
+        "the image is the same"
+    );
+    let grid = |r: &occlux::render::Rendered| {
+        r.grids
+            .iter()
+            .find(|g| g.name == "ao")
+            .unwrap()
+            .volume
+            .values()
+            .to_vec()
+    };
+    let (u, r) = (grid(&unoccluded), grid(&raw));
+    assert!(r.contains(&0.5) && u.contains(&1.0));
+    for (r, u) in r.iter().zip(&u) {
+        assert!(*u == (2.0 * r).min(1.0), "{r} -> {u}");
+    }
+}

@@ -1,6 +1,7 @@
 """The add-on's operators, one module per family: `volume` (load a volume, compute its ambient
-occlusion), `render` (method renders: DOS and IPSVI), `check` (the check against Cycles) and
-`composite` (an Occlux EXR layer in the compositor). The long ones are jobs, framed by `jobs`
+occlusion), `render` (method renders: DOS and IPSVI), `check` (the check against Cycles),
+`composite` (an Occlux EXR layer in the compositor) and `stage` (Import Occlux Stage: a USD stage
+with its render size and camera, also in File > Import). The long ones are jobs, framed by `jobs`
 (progress, background thread, cancel). Each checks its input first and creates nothing when it
 fails."""
 
@@ -8,17 +9,19 @@ from __future__ import annotations
 
 import bpy
 
-from . import check, composite, jobs, render, volume
+from . import check, composite, jobs, render, stage, volume
 
-CLASSES = volume.CLASSES + render.CLASSES + check.CLASSES + composite.CLASSES
+CLASSES = volume.CLASSES + render.CLASSES + check.CLASSES + composite.CLASSES + stage.CLASSES
 
 
 def register() -> None:
     for cls in CLASSES:
         bpy.utils.register_class(cls)
+    bpy.types.TOPBAR_MT_file_import.append(stage.menu_import)
 
 
 def unregister() -> None:
     jobs.cancel_all()
+    bpy.types.TOPBAR_MT_file_import.remove(stage.menu_import)
     for cls in reversed(CLASSES):
         bpy.utils.unregister_class(cls)

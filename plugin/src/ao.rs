@@ -21,13 +21,15 @@ use pyo3::types::PyDict;
 /// transmittance of the extinction over all directions). Returns {"ao": Volume (openness, 1 =
 /// unoccluded)} plus "ao_variance" when `variance` is true, "sdf" (the signed distance,
 /// negative inside) for "sweep", and "ao_oct0".."ao_oct7" when `octants` is true, on the
-/// volume's grid. `device` and `progress` as for `render` (returning False from `progress`
+/// volume's grid. `convention` "unoccluded" (1 in empty space and on an open flat surface, as
+/// Blender shades) or "raw" (VAO only: the paper's openness, 1/2 in empty space and on a flat
+/// interface). `device` and `progress` as for `render` (returning False from `progress`
 /// cancels). The GIL is released while it computes.
 #[pyfunction]
 #[pyo3(signature = (
     scene, method = "cdf", radius = 10, field = "extinction", variance = false, device = "auto",
     volume = None, progress = None, iso = None, gamma = 2.0, octant_intensities = None,
-    alpha = 1.0, combined = false, octants = false
+    alpha = 1.0, combined = false, octants = false, convention = "unoccluded"
 ))]
 #[allow(clippy::too_many_arguments)] // Python keyword arguments, all with defaults
 pub fn ao_volume<'py>(
@@ -46,6 +48,7 @@ pub fn ao_volume<'py>(
     alpha: f32,
     combined: bool,
     octants: bool,
+    convention: &str,
 ) -> PyResult<Bound<'py, PyDict>> {
     let intensities = match octant_intensities {
         Some(list) => GeometricParams::intensities_from(&list).map_err(py_err)?,
@@ -64,11 +67,12 @@ pub fn ao_volume<'py>(
             normal_weighted: !combined,
         },
         octants,
+        convention: convention.parse().map_err(py_err)?,
     };
     params.validate().map_err(py_err)?;
     let compute = compute(py, device)?;
-    let scene = &scene.inner;
-    let volume = scene_volume(py, scene, volume)?;
+    let (scene, volume) = scene_volume(py, &scene.inner, volume)?;
+    let scene = &*scene;
     let ao = with_progress(py, progress, |report| {
         ao::ao_volume(&compute, &volume, &scene.classification, &params, report)
     })?;

@@ -27,7 +27,8 @@ fn parse_units(units: &str) -> PyResult<ValueUnits> {
     match units {
         "normalized" => Ok(ValueUnits::Normalized),
         "raw" => Ok(ValueUnits::Raw),
-        other => Err(unknown_choice("units", other, &["normalized", "raw"])),
+        "hu" => Ok(ValueUnits::Hu),
+        other => Err(unknown_choice("units", other, &["normalized", "raw", "hu"])),
     }
 }
 
@@ -35,19 +36,20 @@ fn units_name(units: ValueUnits) -> &'static str {
     match units {
         ValueUnits::Normalized => "normalized",
         ValueUnits::Raw => "raw",
+        ValueUnits::Hu => "hu",
     }
 }
 
 #[pymethods]
 impl PyClassification {
     /// A built-in classification (see `occlux.PRESETS`). `units` says how its value positions
-    /// are read: "normalized" (0 = the volume's minimum, 1 = its maximum; what presets are made
-    /// for) or "raw" (the volume's own values). `density_scale` multiplies sigma_t.
+    /// are read: "normalized" (on the robust window of the volume's values: 0 near the
+    /// background, 1 at the top of the object's values) or "hu" (the CT presets' forms in
+    /// Hounsfield units). `density_scale` multiplies sigma_t.
     #[staticmethod]
     #[pyo3(signature = (name, density_scale = 1.0, units = "normalized"))]
     fn preset(name: &str, density_scale: f32, units: &str) -> PyResult<Self> {
-        let mut c = presets::preset(name).map_err(py_err)?;
-        c.units = parse_units(units)?;
+        let mut c = presets::preset_in(name, parse_units(units)?).map_err(py_err)?;
         c.density_scale = density_scale;
         c.validate().map_err(py_err)?;
         Ok(c.into())
@@ -93,14 +95,12 @@ impl PyClassification {
     /// `density_scale` applied: the function Occlux's table holds for that volume, as
     /// `(value, sigma_t, albedo, emission)`; None for a 2D transfer function.
     fn raw_points(&self, volume: &PyVolume) -> Option<Vec<PointArg>> {
-        self.inner
-            .raw_points(volume.inner.value_range())
-            .map(|points| {
-                points
-                    .into_iter()
-                    .map(|p| (p.value, p.sigma_t, p.albedo, p.emission))
-                    .collect()
-            })
+        self.inner.raw_points(&volume.inner).map(|points| {
+            points
+                .into_iter()
+                .map(|p| (p.value, p.sigma_t, p.albedo, p.emission))
+                .collect()
+        })
     }
 
     /// Extinction (sigma_t per world unit) at every voxel centre of `volume`, as a volume on
@@ -111,7 +111,7 @@ impl PyClassification {
             .map_err(py_err)
     }
 
-    /// "normalized" or "raw".
+    /// "normalized", "raw" or "hu".
     #[getter]
     fn units(&self) -> &'static str {
         units_name(self.inner.units)

@@ -79,8 +79,8 @@ pub fn reference(
         seed,
         g,
     };
-    let scene = &scene.inner;
-    let volume = scene_volume(py, scene, volume)?;
+    let (scene, volume) = scene_volume(py, &scene.inner, volume)?;
+    let scene = &*scene;
     let image = with_progress(py, progress, |report| {
         let lut = scene.classification.bake(&volume);
         let input = ReferenceInput {

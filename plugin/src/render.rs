@@ -127,18 +127,20 @@ pub(crate) fn compute(py: Python<'_>, device: &str) -> PyResult<Compute> {
     Ok(compute)
 }
 
-/// The volume to render: the one given, or the scene's own (loaded without the GIL).
+/// The scene and volume to render: the scene as it is with the volume given, or the scene
+/// settled for its own volume (loaded without the GIL; camera framed, window resolved: see
+/// `Scene.load`).
 pub(crate) fn scene_volume<'a>(
     py: Python<'_>,
-    scene: &Scene,
+    scene: &'a Scene,
     volume: Option<&'a PyVolume>,
-) -> PyResult<Cow<'a, Volume>> {
+) -> PyResult<(Cow<'a, Scene>, Cow<'a, Volume>)> {
     match volume {
-        Some(volume) => Ok(Cow::Borrowed(&volume.inner)),
-        None => py
-            .detach(|| scene.load_volume())
-            .map(Cow::Owned)
-            .map_err(py_err),
+        Some(volume) => Ok((Cow::Borrowed(scene), Cow::Borrowed(&volume.inner))),
+        None => {
+            let loaded = py.detach(|| scene.load()).map_err(py_err)?;
+            Ok((Cow::Owned(loaded.scene), Cow::Owned(loaded.volume)))
+        }
     }
 }
 
@@ -223,9 +225,8 @@ pub fn render(
     progress: Option<Py<PyAny>>,
 ) -> PyResult<PyRenderResult> {
     let compute = compute(py, device)?;
-    let scene = &scene.inner;
-    let volume = scene_volume(py, scene, volume)?;
-    let image = render_scene(py, scene, &volume, &compute, progress)?.image;
+    let (scene, volume) = scene_volume(py, &scene.inner, volume)?;
+    let image = render_scene(py, &scene, &volume, &compute, progress)?.image;
     let device = match compute {
         Compute::Gpu(ctx) => ctx.describe(),
         Compute::Cpu => "cpu".into(),

@@ -52,6 +52,17 @@ impl PyScene {
         to_python(py, &self.inner.describe())
     }
 
+    /// Loads (or generates) the scene's volume and settles what depends on the data, as
+    /// `occlux render` does: Hounsfield presets when the file says its values are HU, the
+    /// classification's window on the values, the content centre and the framed camera. The
+    /// scene is updated; returns the volume and the notices, one line each.
+    fn settle(&mut self, py: Python<'_>) -> PyResult<(PyVolume, Vec<String>)> {
+        let scene = &self.inner;
+        let loaded = py.detach(|| scene.load()).map_err(py_err)?;
+        self.inner = loaded.scene;
+        Ok((loaded.volume.into(), loaded.notices))
+    }
+
     /// Loads (or generates) the scene's volume and places it in the world (`fit`, `centre`).
     fn load_volume(&self, py: Python<'_>) -> PyResult<PyVolume> {
         let scene = &self.inner;

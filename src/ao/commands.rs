@@ -58,6 +58,7 @@ pub fn ao_volume(
         "method": params.method,
         "radius_voxels": params.radius,
         "field": params.field,
+        "convention": params.convention,
         "dims": volume.dims(),
         "device": on,
         "ao_ms": ao_ms,

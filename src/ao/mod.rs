@@ -4,6 +4,11 @@
 //! distance (geometric mode) or the visibility, the mean transmittance of the classified
 //! extinction over all directions (physical mode);
 //! `reference` holds the Monte Carlo references the fast methods are measured against.
+//!
+//! What the openness means ([`AoConvention`]): by default 1 = unoccluded, as Blender users
+//! shade with it: empty space far from matter reads 1, an unoccluded flat surface 1, a crevice
+//! and the air beside matter less. VAO's own openness (the paper's, 1/2 in empty space and on a
+//! flat interface) stays available as `raw`; AO-shaded DVR shades with it.
 
 pub mod commands;
 pub mod reference;
@@ -92,6 +97,78 @@ impl From<AoMethod> for &'static str {
     }
 }
 
+/// What an AO volume's openness means: the `ao` grid's convention.
+///
+/// VAO's openness F (the paper's) is the fraction of the tangent sphere, a ball of radius R
+/// centred on the voxel, that holds less matter than the voxel, ties counting one half. On a flat
+/// surface half the ball lies inside the matter, so an unoccluded surface reads 1/2; in empty
+/// space every neighbour ties, so empty space reads 1/2 too (and the air beside matter less: the
+/// "0.5 in empty air" of a Blender material). Ambient occlusion in Blender's sense counts only the
+/// half ball above the tangent plane, the hemisphere a surface sees: `Unoccluded` is F over that
+/// half ball, min(1, 2F). An unoccluded flat surface and empty space read 1; in a crevice, 2F is
+/// the open share of the half ball; for a voxel in empty space, 2F is the share of its ball that
+/// holds no matter. A convex point (open space below its tangent plane too) saturates at 1, as
+/// a surface's hemisphere can be no more than fully open.
+///
+/// The sweeps already mean 1 = unoccluded (the geometric sweep's cosine-weighted hemisphere
+/// about the normal: 1 on an open floor; the physical visibility: the mean transmittance over
+/// all directions, 1 where nothing occludes, 1/2 on an opaque flat wall) and have no raw form.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum AoConvention {
+    /// 1 = unoccluded: empty space and an unoccluded flat surface read 1 (VAO: min(1, 2F)).
+    #[default]
+    Unoccluded,
+    /// VAO's openness F as the paper defines it: 1/2 in empty space and on a flat interface.
+    Raw,
+}
+
+impl AoConvention {
+    pub const ALL: [AoConvention; 2] = [AoConvention::Unoccluded, AoConvention::Raw];
+
+    pub fn name(self) -> &'static str {
+        match self {
+            AoConvention::Unoccluded => "unoccluded",
+            AoConvention::Raw => "raw",
+        }
+    }
+
+    /// `method`'s openness, as it computes it (VAO: the raw F), in this convention.
+    pub fn apply(self, method: AoMethod, openness: Volume) -> Result<Volume> {
+        match (self, method) {
+            (AoConvention::Unoccluded, AoMethod::Vao(_)) => unoccluded(openness),
+            _ => Ok(openness),
+        }
+    }
+}
+
+impl std::str::FromStr for AoConvention {
+    type Err = Error;
+    fn from_str(s: &str) -> Result<Self> {
+        Self::ALL
+            .into_iter()
+            .find(|c| c.name() == s)
+            .ok_or_else(|| {
+                Error::param(
+                    "convention",
+                    format!("unknown AO convention '{s}'; known: unoccluded, raw"),
+                )
+            })
+    }
+}
+
+/// VAO's raw openness F normalised by the half ball above the tangent plane: min(1, 2F)
+/// ([`AoConvention`]), on the same grid.
+pub fn unoccluded(raw: Volume) -> Result<Volume> {
+    let (dims, spacing, origin) = (raw.dims(), raw.spacing(), raw.origin());
+    let values = raw
+        .into_values()
+        .into_iter()
+        .map(|f| (2.0 * f).min(1.0))
+        .collect();
+    Volume::new(dims, spacing, origin, values)
+}
+
 /// An AO volume's parameters.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct AoVolumeParams {
@@ -110,6 +187,8 @@ pub struct AoVolumeParams {
     pub geometric: GeometricParams,
     /// Also return the eight octant visibilities (geometric sweep).
     pub octants: bool,
+    /// What the openness means: 1 = unoccluded (default), or VAO's raw openness.
+    pub convention: AoConvention,
 }
 
 impl Default for AoVolumeParams {
@@ -123,6 +202,7 @@ impl Default for AoVolumeParams {
             iso: None,
             geometric: GeometricParams::default(),
             octants: false,
+            convention: AoConvention::default(),
         }
     }
 }
@@ -143,6 +223,13 @@ impl AoVolumeParams {
     pub fn validate(&self) -> Result<()> {
         if let Some(vao) = self.vao() {
             return vao.validate();
+        }
+        if self.convention == AoConvention::Raw {
+            return Err(Error::param(
+                "convention",
+                "raw is VAO's own openness (1/2 in empty space); the sweeps' AO already reads 1 \
+                 where nothing occludes",
+            ));
         }
         if self.field != FieldKind::Extinction {
             return Err(Error::param(
@@ -202,9 +289,10 @@ impl AoVolumeParams {
     }
 }
 
-/// The AO volume of a classified volume: `openness` (1 = unoccluded) on its grid, and the
-/// local variance, signed distance and octant visibilities when the method gives them, on
-/// `compute` (VAO's exact count always on the CPU, the geometric sweep's signed distance too).
+/// The AO volume of a classified volume: `openness` (1 = unoccluded, in `params.convention`) on
+/// its grid, and the local variance, signed distance and octant visibilities when the method
+/// gives them, on `compute` (VAO's exact count always on the CPU, the geometric sweep's signed
+/// distance too).
 pub fn ao_volume(
     compute: &Compute,
     volume: &Volume,
@@ -215,7 +303,9 @@ pub fn ao_volume(
     params.validate()?;
     if let Some(vao) = params.vao() {
         let field = ScalarField::new(volume, classification, params.field)?;
-        return vao::ao_volume(compute, &field, &vao, progress);
+        let mut ao = vao::ao_volume(compute, &field, &vao, progress)?;
+        ao.openness = params.convention.apply(params.method, ao.openness)?;
+        return Ok(ao);
     }
     if params.method == AoMethod::Sweep {
         let (field, surface) = params.surface(volume, classification)?;

@@ -10,10 +10,12 @@ mod lut;
 pub mod presets;
 mod tf1d;
 mod tf2d;
+pub mod window;
 
 pub use lut::{Lut, Optical, LUT_STRIDE};
 pub use tf1d::{ControlPoint, TransferFunction1D};
 pub use tf2d::{TransferFunction2D, Widget, WidgetShape};
+pub use window::{ValueRange, Window, WindowReport};
 
 use crate::error::{Error, Result};
 use crate::volume::Volume;
@@ -24,11 +26,16 @@ use serde::{Deserialize, Serialize};
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum ValueUnits {
-    /// 0 is the volume's minimum value, 1 its maximum (presets use this).
+    /// Positions on the classification's `range` (by default the robust window of
+    /// [`window`]: 0 near the background, 1 at the top of the object's values); presets use
+    /// this unless the values are Hounsfield units.
     #[default]
     Normalized,
     /// The volume's own values.
     Raw,
+    /// Hounsfield units: the volume's own values, which the file says (or the scene states)
+    /// are a CT's HU; the CT presets have HU forms.
+    Hu,
 }
 
 /// A 1D or 2D transfer function; as JSON `{"points": [...]}` or `{"widgets": [...]}`, the
@@ -51,6 +58,8 @@ pub struct Classification {
     pub density_scale: f32,
     /// Entries of the baked table along the value axis.
     pub lut_size: usize,
+    /// What normalised 0 and 1 are on the volume's values (normalised units only).
+    pub range: ValueRange,
 }
 
 /// Default number of LUT entries along the value axis (and 1/16 of it along the gradient axis).
@@ -63,6 +72,7 @@ impl Classification {
             units,
             density_scale,
             lut_size: DEFAULT_LUT_SIZE,
+            range: ValueRange::default(),
         };
         c.validate()?;
         Ok(c)
@@ -81,6 +91,7 @@ impl Classification {
                 format!("must be in 2..=65536, got {}", self.lut_size),
             ));
         }
+        self.range.validate()?;
         match &self.tf {
             TransferFunction::OneD(tf) => tf.validate(),
             TransferFunction::TwoD(tf) => tf.validate(),
@@ -92,8 +103,9 @@ impl Classification {
         matches!(self.tf, TransferFunction::TwoD(_))
     }
 
-    /// Bakes the table for `volume`: the value axis spans its value range, the gradient axis
-    /// (2D only) spans [0, max gradient magnitude].
+    /// Bakes the table for `volume`: the value axis spans its value range (for normalised
+    /// units, what of it the window's ends and cut leave distinct), the gradient axis (2D only)
+    /// spans [0, max gradient magnitude].
     pub fn bake(&self, volume: &Volume) -> Lut {
         let (vmin, vmax) = volume.value_range();
         let gmax = if self.uses_gradient() {
@@ -101,7 +113,22 @@ impl Classification {
         } else {
             0.0
         };
-        self.bake_over(vmin, vmax, gmax)
+        self.bake_over(vmin, vmax, self.window(volume), gmax)
+    }
+
+    /// The window normalised positions are read on for `volume`; None for raw and HU units.
+    pub fn window(&self, volume: &Volume) -> Option<Window> {
+        (self.units == ValueUnits::Normalized).then(|| self.range.window(volume))
+    }
+
+    /// This classification with its window resolved for `volume`, so that it classifies the
+    /// same without the statistics (and says which values it used); unchanged for raw and HU
+    /// units.
+    pub fn resolved_for(&self, volume: &Volume) -> Self {
+        Self {
+            range: self.window(volume).map_or(self.range, ValueRange::Window),
+            ..self.clone()
+        }
     }
 
     /// Extinction (sigma_t per world unit) at every voxel centre, as a volume on the same grid:
@@ -133,37 +160,52 @@ impl Classification {
         })
     }
 
-    /// The control points of a 1D transfer function placed on the raw values of a volume whose
-    /// values span `value_range`, sorted, with the density scale applied to sigma_t: the
-    /// function the baked table holds, for renderers that take a ramp (Cycles). None for a 2D
-    /// transfer function.
-    pub fn raw_points(&self, value_range: (f32, f32)) -> Option<Vec<ControlPoint>> {
+    /// The control points of a 1D transfer function placed on `volume`'s raw values, sorted,
+    /// with the density scale applied to sigma_t: the function the baked table holds, for
+    /// renderers that take a ramp (Cycles). A window's cut becomes a step back to the first
+    /// point. None for a 2D transfer function.
+    pub fn raw_points(&self, volume: &Volume) -> Option<Vec<ControlPoint>> {
         let TransferFunction::OneD(tf) = &self.tf else {
             return None;
         };
-        let (vmin, vmax) = value_axis(value_range.0, value_range.1);
-        let to_raw = |x: f32| match self.units {
-            ValueUnits::Normalized => vmin + x * (vmax - vmin),
-            ValueUnits::Raw => x,
+        let window = self.window(volume);
+        let to_raw = |x: f32| window.map_or(x, |w| w.raw(x));
+        let scaled = |p: &ControlPoint, value: f32| ControlPoint {
+            value,
+            sigma_t: p.sigma_t * self.density_scale,
+            ..p.clone()
         };
-        Some(
-            tf.points()
-                .iter()
-                .map(|p| ControlPoint {
-                    value: to_raw(p.value),
-                    sigma_t: p.sigma_t * self.density_scale,
-                    ..p.clone()
-                })
-                .collect(),
-        )
+        let mut points: Vec<ControlPoint> = tf
+            .points()
+            .iter()
+            .map(|p| scaled(p, to_raw(p.value)))
+            .collect();
+        if let Some(cut) = window.and_then(|w| w.cut) {
+            let (first, last) = (&tf.points()[0], &tf.points()[tf.points().len() - 1]);
+            points.retain(|p| p.value < cut);
+            points.push(scaled(last, cut));
+            points.push(scaled(first, above(cut)));
+        }
+        Some(points)
     }
 
-    /// Bakes the table over an explicit value range and gradient-magnitude maximum.
-    pub fn bake_over(&self, vmin: f32, vmax: f32, gmax: f32) -> Lut {
-        let (vmin, vmax) = value_axis(vmin, vmax);
-        let to_tf = |v: f32| match self.units {
-            ValueUnits::Normalized => (v - vmin) / (vmax - vmin),
-            ValueUnits::Raw => v,
+    /// Bakes the table for values in [vmin, vmax] read on `window` (normalised units; None
+    /// for raw and HU), and gradient magnitudes up to `gmax`.
+    pub fn bake_over(&self, vmin: f32, vmax: f32, window: Option<Window>, gmax: f32) -> Lut {
+        let (vmin, vmax) = match window {
+            // The table spans what the window leaves distinct: beyond a quarter of its width
+            // past either end every value classifies as that end (lookups clamp), so far
+            // outliers cost the data no resolution; a cut needs the values above it.
+            Some(w) if w.cut.is_none() => {
+                let margin = 0.25 * (w.hi - w.lo);
+                value_axis(vmin.max(w.lo - margin), vmax.min(w.hi + margin))
+            }
+            _ => value_axis(vmin, vmax),
+        };
+        let to_tf = |v: f32| match window {
+            Some(w) if w.cut.is_some_and(|cut| v > cut) => w.normalise(w.lo),
+            Some(w) => w.normalise(v),
+            None => v,
         };
         let nv = self.lut_size;
         let value_at = |i: usize| vmin + (vmax - vmin) * i as f32 / (nv - 1) as f32;
@@ -192,6 +234,18 @@ impl Classification {
     }
 }
 
+/// The next f32 above `x` (what `f32::next_up` gives, which is newer than the crate's MSRV).
+pub(crate) fn above(x: f32) -> f32 {
+    if x.is_nan() || x == f32::INFINITY {
+        return x;
+    }
+    if x == 0.0 {
+        return f32::from_bits(1);
+    }
+    let bits = x.to_bits();
+    f32::from_bits(if x > 0.0 { bits + 1 } else { bits - 1 })
+}
+
 /// The table's value axis for values in [vmin, vmax]: a constant volume still needs a non-empty
 /// axis for interpolation.
 fn value_axis(vmin: f32, vmax: f32) -> (f32, f32) {
@@ -212,7 +266,12 @@ mod tests {
         .unwrap();
         let c =
             Classification::new(TransferFunction::OneD(tf), ValueUnits::Normalized, 3.0).unwrap();
-        let lut = c.bake_over(10.0, 20.0, 0.0);
+        let window = Window {
+            lo: 10.0,
+            hi: 20.0,
+            cut: None,
+        };
+        let lut = c.bake_over(10.0, 20.0, Some(window), 0.0);
         let o = lut.lookup(15.0, 0.0);
         assert!((o.sigma_t - 3.0).abs() < 1e-5);
         assert!((o.albedo - Vec3::splat(0.5)).length() < 1e-6);
@@ -228,7 +287,7 @@ mod tests {
         ])
         .unwrap();
         let c = Classification::new(TransferFunction::OneD(tf), ValueUnits::Raw, 1.0).unwrap();
-        let lut = c.bake_over(0.0, 255.0, 0.0);
+        let lut = c.bake_over(0.0, 255.0, None, 0.0);
         for v in [0.0f32, 59.0, 75.0, 90.0, 119.0, 200.0] {
             let want = 20.0 * ((v - 60.0) / 60.0).clamp(0.0, 1.0);
             assert!((lut.lookup(v, 0.0).sigma_t - want).abs() < 0.02, "v={v}");
@@ -242,18 +301,47 @@ mod tests {
             density_scale: 2.5,
             ..c
         };
-        let lut = c.bake_over(-1000.0, 3000.0, 0.0);
-        let points = c.raw_points((-1000.0, 3000.0)).unwrap();
-        assert!(points.len() >= 2);
-        for p in &points {
-            let o = lut.lookup(p.value, 0.0);
-            assert!(
-                (o.sigma_t - p.sigma_t).abs() <= 1e-2 * p.sigma_t.max(1.0),
-                "{p:?}"
-            );
+        // A CT-like ramp with one far outlier, and the same ramp with wrapped negative values.
+        let ramp = |n: usize| (0..n).map(|i| (i % 4000) as f32 - 1000.0);
+        let outlier: Vec<f32> = ramp(40_000).chain([1e6]).collect();
+        let wrapped: Vec<f32> = ramp(40_000)
+            .map(|v| v + 1000.0)
+            .chain((0..4000).map(|i| 64_000.0 + (i % 100) as f32))
+            .collect();
+        for values in [outlier, wrapped] {
+            let volume = Volume::new([values.len(), 1, 1], Vec3::ONE, Vec3::ZERO, values).unwrap();
+            let lut = c.bake(&volume);
+            let points = c.raw_points(&volume).unwrap();
+            assert!(points.len() >= 2);
+            // The step at a cut is one table entry wide in the table; the ramp's points exact.
+            for p in points.iter().filter(|p| p.value < 5000.0) {
+                let o = lut.lookup(p.value, 0.0);
+                assert!(
+                    (o.sigma_t - p.sigma_t).abs() <= 1e-2 * p.sigma_t.max(1.0),
+                    "{p:?}"
+                );
+            }
+            // Between points the table follows the ramp the points describe.
+            for v in [-500.0f32, 0.0, 700.0, 1500.0, 2999.0, 64_050.0] {
+                let after = points.partition_point(|p| p.value <= v);
+                let want = match after {
+                    0 => points[0].sigma_t,
+                    n if n == points.len() => points[n - 1].sigma_t,
+                    n => {
+                        let (a, b) = (&points[n - 1], &points[n]);
+                        a.sigma_t + (b.sigma_t - a.sigma_t) * (v - a.value) / (b.value - a.value)
+                    }
+                };
+                let got = lut.lookup(v, 0.0).sigma_t;
+                assert!(
+                    (got - want).abs() <= 0.05 * want.max(1.0),
+                    "v={v}: {got} vs {want}"
+                );
+            }
         }
         let widgets = presets::preset("boundary-2d").unwrap();
-        assert!(widgets.raw_points((0.0, 1.0)).is_none());
+        let volume = Volume::new([2, 1, 1], Vec3::ONE, Vec3::ZERO, vec![0.0, 1.0]).unwrap();
+        assert!(widgets.raw_points(&volume).is_none());
     }
 
     #[test]

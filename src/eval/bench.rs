@@ -178,7 +178,7 @@ pub fn run(args: &BenchArgs, quiet: bool) -> Result<()> {
     }
     let mut scene = Scene::parse(BENCH_SCENE, Path::new("."))?;
     scene.volume.kind = SourceKind::File(args.volume.clone());
-    let volume = scene.load_volume()?;
+    let crate::scene::Loaded { scene, volume, .. } = scene.load()?;
     let lut = scene.classification.bake(&volume);
     let devices = devices(args.device, quiet)?;
     let mut rows = vec![];

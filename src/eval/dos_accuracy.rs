@@ -229,7 +229,7 @@ pub fn run(args: &AccuracyArgs, quiet: bool) -> Result<()> {
         ambient_only(&mut scene);
         scene.camera.width = args.size;
         scene.camera.height = args.size;
-        let volume = scene.load_volume()?;
+        let crate::scene::Loaded { scene, volume, .. } = scene.load()?;
         let lut = scene.classification.bake(&volume);
         let name = path.file_stem().map_or_else(
             || path.display().to_string(),

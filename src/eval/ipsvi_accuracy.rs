@@ -250,7 +250,7 @@ pub fn run(args: &IpsviAccuracyArgs, quiet: bool) -> Result<()> {
                 ),
             ));
         }
-        let volume = scene.load_volume()?;
+        let crate::scene::Loaded { scene, volume, .. } = scene.load()?;
         let lut = scene.classification.bake(&volume);
         for (light_name, lighting) in lightings {
             let mut scene = scene.clone();

@@ -136,7 +136,7 @@ pub fn run(args: &SweepAccuracyArgs, quiet: bool) -> Result<()> {
             against_cycles.map_or((args.size, args.size), |c| (c.width, c.height));
         scene.camera.width = width;
         scene.camera.height = height;
-        let volume = scene.load_volume()?;
+        let crate::scene::Loaded { scene, volume, .. } = scene.load()?;
         // The physical sweep reads the extinction, timed apart; the geometric mode classifies
         // inside its own time (extinction_ms 0).
         let (visibility, extinction_ms, sweep_ms) = if method == AoMethod::SweepPhysical {

@@ -257,7 +257,7 @@ pub fn run(args: &AccuracyArgs, quiet: bool) -> Result<()> {
     }
     for path in &args.scenes {
         let scene = Scene::from_file(path)?;
-        let volume = scene.load_volume()?;
+        let crate::scene::Loaded { scene, volume, .. } = scene.load()?;
         let name = path.file_stem().map_or_else(
             || path.display().to_string(),
             |s| s.to_string_lossy().into_owned(),

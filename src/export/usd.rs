@@ -9,6 +9,13 @@
 //! Conventions: one scene unit is one metre (Blender's default); Z is up. A USD camera looks down
 //! its local -Z with +Y up, a `DistantLight` shines down its local -Z; transforms are USD's
 //! row-vector matrices (the last row holds the translation).
+//!
+//! Importers make an object of every imageable prim they reach (Blender 5's USD import makes an
+//! empty of each), so only the root `Xform` groups: the `OpenVDBAsset` field prims, read through
+//! the Volume's `field:` relationships and never drawn themselves, are `invisible`, and `/Render`,
+//! which only holds the `RenderSettings`, is a typeless prim rather than a `Scope`. Blender's
+//! import reads no `RenderSettings`: the add-on's Import Occlux Stage applies its resolution and
+//! camera.
 
 use crate::camera::{Camera, Projection};
 use crate::error::{Error, Result};
@@ -182,7 +189,7 @@ impl StageDescription {
         let [w, h] = self.resolution;
         let _ = writeln!(
             s,
-            "def Scope \"Render\"\n{{\n    def RenderSettings \"Settings\"\n    {{\n        \
+            "def \"Render\"\n{{\n    def RenderSettings \"Settings\"\n    {{\n        \
              rel camera = </{root}/{}>\n        uniform int2 resolution = ({w}, {h})\n    }}\n}}",
             self.camera.name
         );
@@ -208,7 +215,8 @@ impl StageDescription {
                 "\n        def OpenVDBAsset \"{}\"\n        {{\n            \
                  token fieldClass = \"fogVolume\"\n            \
                  token fieldDataType = \"float\"\n            \
-                 token fieldName = \"{}\"\n            asset filePath = @{}@\n        }}",
+                 token fieldName = \"{}\"\n            asset filePath = @{}@\n            \
+                 token visibility = \"invisible\"\n        }}",
                 f.name, f.field_name, f.file_path
             );
         }
@@ -454,6 +462,16 @@ mod tests {
         let usda = s.to_usda();
         assert!(usda.starts_with("#usda 1.0\n"));
         assert!(usda.contains("rel field:ao = </World/Volume/ao>"), "{usda}");
+        // Field prims and the render settings' parent make no objects in an importer.
+        assert_eq!(usda.matches("token visibility = \"invisible\"").count(), 2);
+        assert!(
+            usda.contains("def \"Render\"\n{") && !usda.contains("Scope"),
+            "{usda}"
+        );
+        assert!(
+            usda.contains("uniform int2 resolution = (320, 200)"),
+            "{usda}"
+        );
         assert!(s.to_json().contains("\"field_name\": \"ao\""));
 
         let bounds = (Vec3::ZERO, Vec3::ONE);

@@ -4,7 +4,7 @@
 
 use crate::ao::sweep::geometric::{self, GeometricParams};
 use crate::ao::vao::{self, Estimator, FieldKind, VaoParams, MAX_RADIUS};
-use crate::ao::{self as ao_volumes, AoMethod, AoVolumeParams};
+use crate::ao::{self as ao_volumes, AoConvention, AoMethod, AoVolumeParams};
 use crate::error::Result;
 use crate::registry::{Choice, MethodSpec, ParamKind, ParamSpec, Range, RenderMethod, ALL_LIGHTS};
 use crate::render::raycast::{
@@ -39,6 +39,7 @@ pub struct AoParams {
     pub ao_gamma: f32,
     pub ao_alpha: f32,
     pub ao_light: AoLight,
+    pub ao_convention: AoConvention,
     pub opacity_modulation: bool,
     pub variance_max: Option<f32>,
     pub direct: bool,
@@ -63,6 +64,7 @@ impl Default for AoParams {
             ao_gamma: geometric.gamma,
             ao_alpha: geometric.alpha,
             ao_light: AoLight::Ambient,
+            ao_convention: AoConvention::default(),
             opacity_modulation: false,
             variance_max: None,
             direct: true,
@@ -202,6 +204,25 @@ impl AoLight {
     }
 }
 
+const AO_CONVENTION: ParamSpec = ParamSpec {
+    key: "ao_convention",
+    doc: "What the exported ao grid means (the image shades with VAO's raw openness either way)",
+    kind: ParamKind::Choice {
+        options: &[
+            Choice {
+                name: "unoccluded",
+                doc: "1 = unoccluded, as Blender shades: empty space and an open flat surface \
+                      read 1, crevices and the air beside matter less (VAO: min(1, 2 x raw))",
+            },
+            Choice {
+                name: "raw",
+                doc: "VAO's openness as the paper defines it: the fraction of the tangent \
+                      sphere less dense than the voxel, 1/2 in empty space and on a flat \
+                      interface (VAO's estimators only)",
+            },
+        ],
+    },
+};
 const OPACITY_MODULATION: ParamSpec = ParamSpec {
     key: "opacity_modulation",
     doc: "Modulate the extinction by min(variance / variance_max, 1) (the VAO paper)",
@@ -255,6 +276,7 @@ impl AoParams {
                 ..Default::default()
             },
             octants: false,
+            convention: self.ao_convention,
         }
     }
 
@@ -297,6 +319,7 @@ impl RenderMethod for AoParams {
             AO_GAMMA,
             AO_ALPHA,
             AO_LIGHT,
+            AO_CONVENTION,
             OPACITY_MODULATION,
             VARIANCE_MAX,
             DIRECT,
@@ -325,6 +348,16 @@ impl RenderMethod for AoParams {
                     self.ao_method.name()
                 )));
             }
+        }
+        if self.ao_convention != defaults.ao_convention
+            && !matches!(self.ao_method, AoMethod::Vao(_))
+        {
+            return Err(AO_CONVENTION.error(format!(
+                "\"{}\" is VAO's own openness: only for VAO's estimators (the sweeps' AO already \
+                 reads 1 where nothing occludes; not \"{}\")",
+                self.ao_convention.name(),
+                self.ao_method.name()
+            )));
         }
         VARIANCE_MAX.check_optional(self.variance_max)?;
         if self.variance_max.is_some() && !self.opacity_modulation {
@@ -367,15 +400,23 @@ impl RenderMethod for AoParams {
 }
 
 /// Computes the AO volume (progress: its units first, then the image rows) and renders with it;
-/// the grids are the openness and, if asked for, the local variance; the geometric sweep's
-/// signed distance.
+/// the grids are the openness (in `ao_convention`) and, if asked for, the local variance; the
+/// geometric sweep's signed distance.
+///
+/// The image shades with the openness as the method computes it: VAO's raw openness, the
+/// fraction of the whole tangent sphere (1/2 on a flat interface, as the visibility of a point on
+/// an opaque wall under ambient light), whatever the grid's convention.
 pub fn render(input: &MethodInput, params: &AoParams) -> Result<Rendered> {
     let (compute, progress) = (input.compute, input.progress);
+    let mut volume_params = params.ao_volume();
+    if volume_params.vao().is_some() {
+        volume_params.convention = AoConvention::Raw;
+    }
     let ao = ao_volumes::ao_volume(
         compute,
         input.volume,
         input.classification,
-        &params.ao_volume(),
+        &volume_params,
         progress,
     )?;
     let opacity = match (&ao.variance, params.opacity_modulation) {
@@ -397,7 +438,7 @@ pub fn render(input: &MethodInput, params: &AoParams) -> Result<Rendered> {
     let image = raycast::render(compute, &raycast_input, progress)?;
     let mut grids = vec![Grid {
         name: AO_GRID,
-        volume: ao.openness,
+        volume: params.ao_convention.apply(params.ao_method, ao.openness)?,
     }];
     if let (true, Some(variance)) = (params.ao_variance, ao.variance) {
         grids.push(Grid {

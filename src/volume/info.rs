@@ -7,6 +7,7 @@
 
 use super::loaders::NonFiniteVoxels;
 use super::{load_with_info, LoadOptions, NonFinite, Volume};
+use crate::classify::{Window, WindowReport};
 use crate::error::Result;
 use std::path::Path;
 
@@ -128,7 +129,7 @@ fn to_bin(v: f32, width: f32) -> String {
 }
 
 /// Loads `file` and prints its description on standard output.
-pub fn print(file: &Path, options: &LoadOptions) -> Result<()> {
+pub fn print(file: &Path, options: &LoadOptions, suggest: bool) -> Result<()> {
     let options = LoadOptions {
         non_finite: NonFinite::Census,
         ..options.clone()
@@ -173,6 +174,15 @@ pub fn print(file: &Path, options: &LoadOptions) -> Result<()> {
         return Ok(());
     };
     println!("values    {} .. {}", stats.min, stats.max);
+    match &source.hounsfield {
+        Some(why) => println!("units     Hounsfield ({why}): CT presets read them in HU"),
+        None => println!("units     not stated by the file"),
+    }
+    // The window is read from finite values only; a census left zeros where others were.
+    let report = (bad == 0).then(|| Window::robust(&vol));
+    if let Some(report) = &report {
+        println!("window    {report}: presets' normalised 0..1");
+    }
     let fine_width = (stats.max - stats.min) / FINE_BINS as f32;
     let percentiles: Vec<String> = PERCENTILES
         .iter()
@@ -196,7 +206,43 @@ pub fn print(file: &Path, options: &LoadOptions) -> Result<()> {
             "#".repeat(bar)
         );
     }
+    if suggest {
+        match (&source.hounsfield, &report) {
+            (Some(_), _) => println!(
+                "\n# paste into a scene: the file's values are Hounsfield units\n\
+                 [classification]\npreset = \"ct-soft-tissue\"   # or \"ct-bone\"\nunits = \"hu\""
+            ),
+            (None, Some(report)) => println!("\n{}", suggestion(report)),
+            (None, None) => println!(
+                "\n# no suggestion: set volume.replace_non_finite first, the window needs finite values"
+            ),
+        }
+    }
     Ok(())
+}
+
+/// A `[classification]` a user can paste: clear up to the background band's top, a
+/// translucent middle and dense at the window's top, in the volume's own values.
+fn suggestion(report: &WindowReport) -> String {
+    let w = report.window;
+    let clear = (report.background.max(w.lo) + 0.15 * (w.hi - w.lo)).min(w.raw(0.6));
+    let middle = 0.5 * (clear + w.hi);
+    let mut text = format!(
+        "# paste into a scene: a ramp on this file's values (robust window {w})\n\
+         [classification]\nunits = \"raw\"\npoints = [\n\
+         \x20 {{ value = {clear}, sigma_t = 0, albedo = [0.85, 0.8, 0.75] }},\n\
+         \x20 {{ value = {middle}, sigma_t = 3, albedo = [0.9, 0.85, 0.8] }},\n\
+         \x20 {{ value = {}, sigma_t = 20, albedo = [0.95, 0.93, 0.9] }},\n",
+        w.hi
+    );
+    if let Some(cut) = w.cut {
+        text += &format!(
+            "\x20 {{ value = {cut}, sigma_t = 20, albedo = [0.95, 0.93, 0.9] }},  # wrapped values above\n\
+             \x20 {{ value = {}, sigma_t = 0 }},\n",
+            crate::classify::above(cut)
+        );
+    }
+    text + "]\n# sigma_t is per world unit: with volume.fit = \"auto\" (2 units across)"
 }
 
 #[cfg(test)]

@@ -106,7 +106,7 @@ def test_the_extension_installs_registers_and_reloads(extension: Path, tmp_path:
         tmp_path,
         """
         ops = ("import_volume", "compute_ao", "render_dos", "render_ipsvi", "check_cycles",
-               "composite")
+               "composite", "import_stage")
         result["registered"] = [hasattr(bpy.ops.occlux, op) for op in ops]
         result["panel"] = hasattr(bpy.types, "VIEW3D_PT_occlux")
         result["settings"] = hasattr(bpy.types.Scene, "occlux")
@@ -139,7 +139,7 @@ def test_the_extension_installs_registers_and_reloads(extension: Path, tmp_path:
         result["drawn"] = len(drawn["props"]), sorted(drawn["ops"])
         """,
     )
-    assert result["registered"] == [True] * 6 and result["panel"] and result["settings"]
+    assert result["registered"] == [True] * 7 and result["panel"] and result["settings"]
     assert result["after_disable"] is False and result["after_reload"] is True
     assert result["unknown_props"] == [] and result["unknown_ops"] == [], result
     assert result["drawn"][0] > 20 and result["drawn"][1] == sorted(
@@ -147,6 +147,7 @@ def test_the_extension_installs_registers_and_reloads(extension: Path, tmp_path:
         for op in (
             "import_volume", "compute_ao", "render_dos", "render_ipsvi", "check_cycles",
             "composite",
+            "import_stage",
         )
     ), result["drawn"]  # fmt: skip
     # The occlux package came from the wheel inside the extension, not from this checkout.
@@ -372,6 +373,8 @@ def test_compute_ao_adds_a_volume_shaded_by_its_ao_grid(
     grid.copyToArray(got, ijk=(0, 0, 0))
     np.testing.assert_allclose(got.transpose(2, 1, 0), want.values, atol=1e-6)
     assert 0.0 <= want.values.min() < 0.9 and want.values.max() <= 1.0, "some voxels occluded"
+    if not sweep:  # 1 = unoccluded, so the material leaves the open air and flat surfaces alone
+        assert np.mean(want.values == 1.0) > 0.5, "VAO's raw 1/2 in empty air is not the grid"
     assert grid.transform.voxelSize()[0] == pytest.approx(scale * volume.spacing[0], rel=1e-5)
 
 

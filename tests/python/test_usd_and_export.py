@@ -106,7 +106,10 @@ def test_pxr_authoring_gives_the_cores_stage(scene, tmp_path: Path) -> None:
     assert len(a) >= 9, "volume, two fields, camera, three lights, render settings"
 
 
-def test_blender_imports_the_pxr_stage(scene, tmp_path: Path) -> None:
+@pytest.mark.parametrize("stage", ["shells.usda", "pxr.usdc"])
+def test_blender_imports_the_stage_without_stray_empties(scene, tmp_path: Path, stage) -> None:
+    """Blender's own USD import (File > Import > USD): the volume with its grids and the lights;
+    the root is the one empty, none for the field prims or the render settings' parent."""
     import bpy
 
     s, _ = scene
@@ -114,12 +117,13 @@ def test_blender_imports_the_pxr_stage(scene, tmp_path: Path) -> None:
     description = json.loads(occlux.stage_description(s, s.load_volume(), "shells.vdb", GRIDS))
     occlux.usd.write_stage(tmp_path / "pxr.usdc", description)
     bpy.ops.wm.read_factory_settings(use_empty=True)
-    assert bpy.ops.wm.usd_import(filepath=str(tmp_path / "pxr.usdc")) == {"FINISHED"}
+    assert bpy.ops.wm.usd_import(filepath=str(tmp_path / stage)) == {"FINISHED"}
     volume = bpy.data.objects["Volume"]
     assert volume.data.grids.load(), volume.data.grids.error_message
     assert sorted(g.name for g in volume.data.grids) == GRIDS
     types = sorted(o.data.type for o in bpy.data.objects if o.type == "LIGHT")
     assert "SUN" in types and "POINT" in types
+    assert [o.name for o in bpy.data.objects if o.type == "EMPTY"] == ["World"]
 
 
 def test_add_to_stage_keeps_the_pipelines_prims(scene, tmp_path: Path) -> None:

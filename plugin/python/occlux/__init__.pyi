@@ -16,7 +16,7 @@ PRESETS: list[str]
 _Path = str | PathLike[str]
 _Triple = tuple[float, float, float]
 _Device = Literal["auto", "gpu", "cpu"]
-_Units = Literal["normalized", "raw"]
+_Units = Literal["normalized", "raw", "hu"]
 
 class OccluxError(Exception):
     """An error reported by the Occlux core. The message is the core's, verbatim: it names the
@@ -80,8 +80,9 @@ class Classification:
         name: str, density_scale: float = 1.0, units: _Units = "normalized"
     ) -> Classification:
         """A built-in classification (see :data:`PRESETS`). ``units`` says how its value
-        positions are read: "normalized" (0 = the volume's minimum, 1 = its maximum; what presets
-        are made for) or "raw" (the volume's own values). ``density_scale`` multiplies sigma_t."""
+        positions are read: "normalized" (on the robust window of the volume's values: 0 near
+        the background, 1 at the top of the object's values) or "hu" (the CT presets' forms in
+        Hounsfield units). ``density_scale`` multiplies sigma_t."""
 
     @staticmethod
     def from_points(
@@ -135,6 +136,12 @@ class Scene:
         ``type`` and ``fov_y`` in radians or ``scale``, width, height, half_extent),
         ``lighting`` (``lights``, ``background``) and ``method`` (``method`` and every
         parameter)."""
+
+    def settle(self) -> tuple[Volume, list[str]]:
+        """Loads (or generates) the scene's volume and settles what depends on the data, as
+        ``occlux render`` does: Hounsfield presets when the file says its values are HU, the
+        classification's window on the values, the content centre and the framed camera. The
+        scene is updated; returns the volume and the notices, one line each."""
 
     def load_volume(self) -> Volume:
         """Loads (or generates) the scene's volume and places it in the world (fit, centre)."""
@@ -315,6 +322,7 @@ def ao_volume(
     alpha: float = 1.0,
     combined: bool = False,
     octants: bool = False,
+    convention: Literal["unoccluded", "raw"] = "unoccluded",
 ) -> dict[str, Volume]:
     """What ``occlux ao`` computes: the AO volume of ``scene``'s classified volume,
     ``{"ao": openness}`` (1 = unoccluded) on the volume's grid, ready for :func:`write_vdb`;
@@ -325,7 +333,10 @@ def ao_volume(
     bit 2 -z), ``alpha`` < 1 for a translucent surface, ``combined`` for the octants' plain
     mean; it adds ``"sdf"`` (signed distance, negative inside; a level set in
     :func:`write_vdb`) and, with ``octants``, ``"ao_oct0"``..``"ao_oct7"``.
-    ``sweep-physical`` is the visibility, the mean transmittance over all directions."""
+    ``sweep-physical`` is the visibility, the mean transmittance over all directions.
+    ``convention``: ``"unoccluded"`` (1 in empty space and on an open flat surface, as Blender
+    shades; VAO: min(1, 2F) of the paper's openness F) or ``"raw"`` (VAO's estimators only: F
+    itself, 1/2 in empty space and on a flat interface)."""
 
 def methods() -> list[dict[str, Any]]:
     """The rendering methods a scene's ``render.method`` can name (the core's registry): each

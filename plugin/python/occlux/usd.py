@@ -10,6 +10,10 @@ new ``.usda``/``.usdc`` file or inside a stage of your own pipeline::
     description = json.loads(occlux.stage_description(scene, volume, "engine.vdb", ["density"]))
     occlux.usd.write_stage("engine.usda", description)  # a stage of its own, or:
     occlux.usd.add_to_stage(Usd.Stage.Open("shot.usda"), description)  # into an existing one
+
+The stage is laid out for importers that make an object of every imageable prim (Blender's):
+the field prims are ``invisible`` and ``/Render`` is typeless, so only ``/World`` is an empty.
+Blender's import reads no ``RenderSettings``; the add-on's Import Occlux Stage applies them.
 """
 
 from __future__ import annotations
@@ -69,6 +73,9 @@ def add_to_stage(stage, description: Description | str) -> None:
         asset.CreateFieldNameAttr(f["field_name"])
         asset.CreateFieldClassAttr("fogVolume")
         asset.CreateFieldDataTypeAttr("float")
+        # Read through the Volume's relationship, never drawn itself: invisible, so importers
+        # (Blender's) make no object of it.
+        asset.CreateVisibilityAttr(usd_geom.Tokens.invisible)
         volume.CreateFieldRelationship(f["name"], path)
 
     c = d["camera"]
@@ -96,7 +103,8 @@ def add_to_stage(stage, description: Description | str) -> None:
             schema.CreateTreatAsPointAttr(True)
         _set_transform(px, schema.GetPrim(), light["transform"])
 
-    stage.DefinePrim("/Render", "Scope")
+    # Typeless, not a Scope: an imageable prim would become an empty in Blender.
+    stage.DefinePrim("/Render")
     settings = px.UsdRender.Settings.Define(stage, "/Render/Settings")
     settings.CreateResolutionAttr(gf.Vec2i(*d["resolution"]))
     settings.CreateCameraRel().SetTargets([camera.GetPath()])

@@ -3,7 +3,9 @@
 //! The openness O(x) of a voxel is the fraction of its neighbourhood that holds less matter
 //! than x itself: the CDF F of the field over the tangent sphere of radius R around x,
 //! evaluated at the field's value v(x). A point on a flat interface gets 1/2, a point in a
-//! hollow more, a point in a crevice less. The paper's speed comes from not counting: it
+//! hollow more, a point in a crevice less; so does empty space (every neighbour ties). This
+//! module computes F; the `ao` grid is written as min(1, 2F) unless asked for raw F
+//! ([`crate::ao::AoConvention`]). The paper's speed comes from not counting: it
 //! reconstructs F from a few local statistics over the sphere's bounding box (side 2R + 1),
 //! computed by separable filters.
 //!

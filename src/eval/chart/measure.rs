@@ -209,7 +209,7 @@ pub fn panel(path: &Path, light: LightingMode, size: u32, setup: &Setup) -> Resu
         .file_stem()
         .map_or("scene".into(), |s| s.to_string_lossy().into_owned());
     (setup.progress)(&format!("{name} {}: reference", light.name()));
-    let volume = scene.load_volume()?;
+    let crate::scene::Loaded { scene, volume, .. } = scene.load()?;
     let lut = scene.classification.bake(&volume);
     let estimator = light.estimator();
     let (_, truth_image) = monte_carlo(&scene, &volume, &lut, estimator, setup.reference_spp, 1)?;

@@ -23,7 +23,11 @@ pub fn run(
     let scene = Scene::from_file(scene_path)?;
     // A folder that cannot be written is found before the work, not after it.
     check_writable(out)?;
-    let volume = scene.load_volume()?;
+    let loaded = scene.load()?;
+    for line in &loaded.notices {
+        crate::progress::notice(quiet, line);
+    }
+    let (scene, volume) = (loaded.scene, loaded.volume);
     let lut = scene.classification.bake(&volume);
     let bar = Bar::new(quiet, scene.camera.height as u64, "sampling");
     let started = Instant::now();

@@ -13,7 +13,8 @@
 //! - degenerate ones (parallel or zero-length axes): refused by name.
 
 use crate::error::{Error, Result};
-use glam::Vec3;
+use crate::volume::Volume;
+use glam::{DMat3, DVec3, Vec3};
 use rayon::prelude::*;
 use std::fmt;
 use std::path::Path;
@@ -143,7 +144,7 @@ impl Placement {
             lengths[a] = length;
         }
         let units = [0, 1, 2].map(|a| steps[a].map(|s| s / lengths[a]));
-        if determinant(units).abs() < 1e-6 {
+        if DMat3::from_cols_array_2d(&units).determinant().abs() < 1e-6 {
             return Err(Error::format(
                 path,
                 format!(
@@ -264,7 +265,7 @@ impl Placement {
                 origin,
                 dims: out,
                 ..
-            } => resample(&values, dims, steps, origin, out, self.origin, self.spacing),
+            } => resample(values, dims, steps, origin, out, self.origin, self.spacing),
         }
     }
 }
@@ -287,27 +288,6 @@ fn match_axes(units: &[[f64; 3]; 3]) -> [usize; 3] {
         used[best.2] = true;
     }
     axes
-}
-
-fn determinant(m: [[f64; 3]; 3]) -> f64 {
-    m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1])
-        - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0])
-        + m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0])
-}
-
-/// The inverse of the matrix whose columns are `steps` (world = M index), as rows.
-fn inverse_columns(steps: [[f64; 3]; 3]) -> [[f64; 3]; 3] {
-    // M[w][a] = steps[a][w]; M^-1 = adj(M) / det(M).
-    let m = [0, 1, 2].map(|w| [0, 1, 2].map(|a| steps[a][w]));
-    let det = determinant(m);
-    let c =
-        |r0: usize, c0: usize, r1: usize, c1: usize| m[r0][c0] * m[r1][c1] - m[r0][c1] * m[r1][c0];
-    [
-        [c(1, 1, 2, 2), -c(0, 1, 2, 2), c(0, 1, 1, 2)],
-        [-c(1, 0, 2, 2), c(0, 0, 2, 2), -c(0, 0, 1, 2)],
-        [c(1, 0, 2, 1), -c(0, 0, 2, 1), c(0, 0, 1, 1)],
-    ]
-    .map(|row| row.map(|v| v / det))
 }
 
 /// Values of a signed permutation: the new grid's voxel with world index n holds the stored
@@ -337,10 +317,11 @@ fn reorder(values: &[f32], dims: [usize; 3], axes: [usize; 3], flip: [bool; 3]) 
     out
 }
 
-/// Trilinear samples of the stored grid at the centres of the world-aligned grid of `out`
-/// voxels (`origin`, `spacing`); outside the stored grid's box, its lowest value.
+/// Trilinear samples of the stored grid (as [`Volume::sample_index`] takes them, clamped to
+/// the outer centres) at the centres of the world-aligned grid of `out` voxels (`origin`,
+/// `spacing`); outside the stored grid's box, its lowest value.
 fn resample(
-    values: &[f32],
+    values: Vec<f32>,
     dims: [usize; 3],
     steps: [[f64; 3]; 3],
     stored_origin: [f64; 3],
@@ -348,14 +329,15 @@ fn resample(
     origin: Vec3,
     spacing: Vec3,
 ) -> Vec<f32> {
-    let inverse = inverse_columns(steps);
-    let fill = values
-        .par_iter()
-        .copied()
-        .filter(|v| v.is_finite())
-        .reduce(|| f32::INFINITY, f32::min);
-    let fill = if fill.is_finite() { fill } else { 0.0 };
-    let at = |i: usize, j: usize, k: usize| values[i + dims[0] * (j + dims[1] * k)];
+    let inverse = DMat3::from_cols_array_2d(&steps).inverse();
+    let stored_origin = DVec3::from_array(stored_origin);
+    // The stored grid in its own index frame; its values are finite (the non-finite policy
+    // ran), so only a malformed size could fail, and `finish` reports those.
+    let Ok(stored) = Volume::new(dims, Vec3::ONE, Vec3::ZERO, values) else {
+        return Vec::new();
+    };
+    let fill = stored.value_range().0;
+    let last = DVec3::new(dims[0] as f64, dims[1] as f64, dims[2] as f64) - 0.5;
     let [nx, ny, _] = out;
     let mut result = vec![0.0f32; out[0] * out[1] * out[2]];
     result
@@ -363,27 +345,16 @@ fn resample(
         .enumerate()
         .for_each(|(k, slab)| {
             for (p, value) in slab.iter_mut().enumerate() {
-                let n = [p % nx, p / nx, k];
-                let world: [f64; 3] = [0, 1, 2]
-                    .map(|w| origin[w] as f64 + n[w] as f64 * spacing[w] as f64 - stored_origin[w]);
-                let index =
-                    inverse.map(|row| row[0] * world[0] + row[1] * world[1] + row[2] * world[2]);
+                let n = Vec3::new((p % nx) as f32, (p / nx) as f32, k as f32);
+                let world = (origin + n * spacing).as_dvec3();
+                let index = inverse * (world - stored_origin);
                 // The stored grid's box reaches half a voxel beyond its outer centres.
-                let inside = (0..3).all(|a| index[a] >= -0.5 && index[a] <= dims[a] as f64 - 0.5);
-                if !inside {
-                    *value = fill;
-                    continue;
-                }
-                let c = [0, 1, 2].map(|a| index[a].clamp(0.0, (dims[a] - 1) as f64));
-                let i0 = c.map(|x| x as usize);
-                let f = [0, 1, 2].map(|a| (c[a] - i0[a] as f64) as f32);
-                let i1 = [0, 1, 2].map(|a| (i0[a] + 1).min(dims[a] - 1));
-                let lerp = |a: f32, b: f32, t: f32| a + (b - a) * t;
-                let x00 = lerp(at(i0[0], i0[1], i0[2]), at(i1[0], i0[1], i0[2]), f[0]);
-                let x10 = lerp(at(i0[0], i1[1], i0[2]), at(i1[0], i1[1], i0[2]), f[0]);
-                let x01 = lerp(at(i0[0], i0[1], i1[2]), at(i1[0], i0[1], i1[2]), f[0]);
-                let x11 = lerp(at(i0[0], i1[1], i1[2]), at(i1[0], i1[1], i1[2]), f[0]);
-                *value = lerp(lerp(x00, x10, f[1]), lerp(x01, x11, f[1]), f[2]);
+                let inside = index.cmpge(DVec3::splat(-0.5)).all() && index.cmple(last).all();
+                *value = if inside {
+                    stored.sample_index(index.as_vec3())
+                } else {
+                    fill
+                };
             }
         });
     result

@@ -63,6 +63,11 @@ impl ScalarType {
         }
     }
 
+    /// Whether the type holds integers.
+    pub fn is_integer(self) -> bool {
+        !matches!(self, ScalarType::F32 | ScalarType::F64)
+    }
+
     /// Bytes per value.
     pub fn size(self) -> usize {
         match self {
@@ -178,6 +183,18 @@ pub struct SourceInfo {
     pub non_finite: NonFiniteVoxels,
     /// How the stored grid was brought into the world frame.
     pub frame: Frame,
+    /// Why the file's values are Hounsfield units, when the file says so (NIfTI's DICOM
+    /// rescale or description, NRRD's `sample units`); None when it does not.
+    pub hounsfield: Option<String>,
+}
+
+/// Whether a unit's or a description's text names Hounsfield units ("HU" as a word, or
+/// "Hounsfield").
+pub(crate) fn names_hounsfield(text: &str) -> bool {
+    text.to_ascii_lowercase().contains("hounsfield")
+        || text
+            .split(|c: char| !c.is_ascii_alphanumeric())
+            .any(|word| word == "HU")
 }
 
 const SUPPORTED: &str = ".nrrd, .nhdr, .nii, .nii.gz, .vdb, .raw, .npy";

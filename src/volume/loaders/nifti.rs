@@ -72,8 +72,35 @@ fn load_from(
         grid: None,
         non_finite,
         frame: placement.frame(),
+        hounsfield: hounsfield(&header, scalar),
     };
     Ok((volume, info))
+}
+
+/// Rescale intercepts that DICOM CT series carry into NIfTI (dcm2niix writes the series'
+/// RescaleSlope and RescaleIntercept as scl_slope and scl_inter).
+const CT_INTERCEPTS: [f32; 4] = [-1024.0, -1000.0, -2048.0, -3024.0];
+
+/// Why the values are Hounsfield units: the description or intent names them, or integer data
+/// carries a CT scanner's DICOM rescale (slope 1, intercept -1024 and the like).
+fn hounsfield(header: &NiftiHeader, scalar: ScalarType) -> Option<String> {
+    for (field, bytes) in [
+        ("descrip", header.descrip.as_slice()),
+        ("intent_name", &header.intent_name[..]),
+    ] {
+        let text = String::from_utf8_lossy(bytes);
+        let text = text.trim_end_matches('\0').trim();
+        if super::names_hounsfield(text) {
+            return Some(format!("NIfTI {field} \"{text}\""));
+        }
+    }
+    (header.scl_slope == 1.0 && CT_INTERCEPTS.contains(&header.scl_inter) && scalar.is_integer())
+        .then(|| {
+            format!(
+                "NIfTI scl_slope 1 and scl_inter {} on integer data (a CT's DICOM rescale)",
+                header.scl_inter
+            )
+        })
 }
 
 fn header_error(path: &Path, error: NiftiError) -> Error {

@@ -50,6 +50,10 @@ pub(super) fn load(path: &Path, opts: &LoadOptions) -> Result<(Volume, SourceInf
         grid: None,
         non_finite,
         frame: header.placement.frame(),
+        hounsfield: fields
+            .get("sample units")
+            .filter(|units| super::names_hounsfield(units))
+            .map(|units| format!("NRRD sample units \"{units}\"")),
     };
     Ok((volume, info))
 }

@@ -62,6 +62,7 @@ pub(super) fn load(path: &Path, opts: &LoadOptions) -> Result<(Volume, SourceInf
         grid: None,
         non_finite,
         frame: Frame::ALIGNED,
+        hounsfield: None,
     };
     Ok((volume, info))
 }

@@ -59,6 +59,7 @@ pub(super) fn load(path: &Path, opts: &LoadOptions) -> Result<(Volume, SourceInf
         grid: Some(name),
         non_finite,
         frame: Frame::ALIGNED,
+        hounsfield: None,
     };
     Ok((volume, info))
 }
