@@ -290,7 +290,9 @@ def test_bad_arguments_raise_the_core_message() -> None:
         occlux.Classification.preset("ct-bones")
     with pytest.raises(occlux.OccluxError, match="unknown phantom 'cube'"):
         occlux.Volume.phantom("cube")
-    with pytest.raises(occlux.OccluxError, match="invalid `units`: 'hu' is not one of"):
+    with pytest.raises(occlux.OccluxError, match="invalid `units`: 'kelvin' is not one of"):
+        occlux.Classification.preset("mri", units="kelvin")  # type: ignore[arg-type]
+    with pytest.raises(occlux.OccluxError, match="'mri' has no form in Hounsfield units"):
         occlux.Classification.preset("mri", units="hu")
     with pytest.raises(occlux.OccluxError, match="spacing must be positive"):
         occlux.Volume(np.ones((2, 2, 2)), spacing=(1.0, 0.0, 1.0))
