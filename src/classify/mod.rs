@@ -192,22 +192,30 @@ impl Classification {
     /// Bakes the table for values in [vmin, vmax] read on `window` (normalised units; None
     /// for raw and HU), and gradient magnitudes up to `gmax`.
     pub fn bake_over(&self, vmin: f32, vmax: f32, window: Option<Window>, gmax: f32) -> Lut {
+        let nv = self.lut_size;
         let (vmin, vmax) = match window {
             // The table spans what the window leaves distinct: beyond a quarter of its width
             // past either end every value classifies as that end (lookups clamp), so far
-            // outliers cost the data no resolution; a cut needs the values above it.
-            Some(w) if w.cut.is_none() => {
+            // outliers cost the data no resolution. Above a cut every value classifies as
+            // the bottom, so the table ends one entry past the cut: the step is one entry
+            // of the data's own range wide, not one of the range the wrapped values stretch.
+            Some(w) => {
                 let margin = 0.25 * (w.hi - w.lo);
-                value_axis(vmin.max(w.lo - margin), vmax.min(w.hi + margin))
+                let lo = vmin.max(w.lo - margin);
+                let hi = match w.cut {
+                    Some(cut) if nv > 2 && cut > lo => vmax.min(cut + (cut - lo) / (nv - 2) as f32),
+                    Some(_) => vmax,
+                    None => vmax.min(w.hi + margin),
+                };
+                value_axis(lo, hi)
             }
-            _ => value_axis(vmin, vmax),
+            None => value_axis(vmin, vmax),
         };
         let to_tf = |v: f32| match window {
             Some(w) if w.cut.is_some_and(|cut| v > cut) => w.normalise(w.lo),
             Some(w) => w.normalise(v),
             None => v,
         };
-        let nv = self.lut_size;
         let value_at = |i: usize| vmin + (vmax - vmin) * i as f32 / (nv - 1) as f32;
         let scale = self.density_scale;
         match &self.tf {
@@ -313,13 +321,23 @@ mod tests {
             let lut = c.bake(&volume);
             let points = c.raw_points(&volume).unwrap();
             assert!(points.len() >= 2);
-            // The step at a cut is one table entry wide in the table; the ramp's points exact.
-            for p in points.iter().filter(|p| p.value < 5000.0) {
+            // The ramp's points, the cut's included, are exact in the table.
+            let cut = c.window(&volume).and_then(|w| w.cut);
+            for p in points
+                .iter()
+                .filter(|p| !cut.is_some_and(|cut| p.value > cut))
+            {
                 let o = lut.lookup(p.value, 0.0);
                 assert!(
                     (o.sigma_t - p.sigma_t).abs() <= 1e-2 * p.sigma_t.max(1.0),
                     "{p:?}"
                 );
+            }
+            // The step at a cut is one table entry of the data's range wide: 1 % of the range
+            // past the cut already reads as the bottom.
+            if let Some(cut) = cut {
+                let past = lut.lookup(cut * 1.01, 0.0).sigma_t;
+                assert_eq!(past, points[0].sigma_t, "{cut}");
             }
             // Between points the table follows the ramp the points describe.
             for v in [-500.0f32, 0.0, 700.0, 1500.0, 2999.0, 64_050.0] {
