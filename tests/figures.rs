@@ -349,3 +349,94 @@ fn a_volume_too_small_or_too_large_for_its_extinction_gets_a_notice() {
     let b = share_above(&render(&auto.scene, &auto.volume), 0.05);
     assert!((a - b).abs() < 0.01, "{a} vs {b}");
 }
+
+/// An example of examples/ as `occlux render` loads it (framed, window resolved), with its
+/// method's lines replaced by `method` when given, at a test's image size: a square image's
+/// framing does not depend on its size.
+fn example(name: &str, method: Option<(&str, &str)>) -> (Scene, Volume) {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("examples");
+    let mut text = std::fs::read_to_string(dir.join(format!("{name}.toml"))).unwrap();
+    if let Some((lines, replacement)) = method {
+        assert!(text.contains(lines), "{name}: {lines}");
+        text = text.replace(lines, replacement);
+    }
+    let loaded = Scene::parse(&text, &dir).unwrap().load().unwrap();
+    let mut scene = loaded.scene;
+    (scene.camera.width, scene.camera.height) = (96, 96);
+    (scene, loaded.volume)
+}
+
+/// Luminance summed over an image, the background's included (it is the same in both images
+/// compared, so differences are the volume's).
+fn light(image: &RenderImage) -> f64 {
+    image
+        .rgba
+        .iter()
+        .map(|p| (p[0] + p[1] + p[2]) as f64 / 3.0)
+        .sum()
+}
+
+#[test]
+fn the_bonsai_examples_show_what_each_method_is_for() {
+    // Ambient occlusion under a sky: the same scene with gradient shading is the unoccluded
+    // sky, so AO can only darken it, pixel by pixel, and on this scene it must darken the
+    // content by a fifth at least (with the sky drowned by a sun, as the old examples had it,
+    // the two differed by a few percent).
+    let ao = (
+        "method = \"ao\"\nao_method = \"sweep-physical\"",
+        "method = \"gradient\"",
+    );
+    let (scene, volume) = example("bonsai-ao", None);
+    let occluded = render(&scene, &volume);
+    let (scene, volume) = example("bonsai-ao", Some(ao));
+    let open = render(&scene, &volume);
+    for (o, u) in occluded.rgba.iter().zip(&open.rgba) {
+        assert!((o[3] - u[3]).abs() < 1e-5, "{o:?} {u:?}");
+        for c in 0..3 {
+            assert!(o[c] <= u[c] * (1.0 + 1e-4) + 1e-6, "{o:?} {u:?}");
+        }
+    }
+    let ratio = light(&occluded) / light(&open);
+    assert!(ratio < 0.8, "AO keeps {ratio} of the sky's light");
+
+    // Directional occlusion under the same sky darkens it as much, and by varying amounts
+    // across the content (a uniform factor would show no structure).
+    let dos_lines = ("method = \"dos\"\ntheta_deg = 60", "method = \"gradient\"");
+    let (scene, volume) = example("bonsai-dos", None);
+    let dos = render(&scene, &volume);
+    let (scene, volume) = example("bonsai-dos", Some(dos_lines));
+    let open = render(&scene, &volume);
+    let ratio = light(&dos) / light(&open);
+    let mut visible: Vec<f32> = dos
+        .factor("occlusion")
+        .unwrap()
+        .iter()
+        .zip(&dos.rgba)
+        .filter(|(_, p)| p[3] > 0.5)
+        .map(|(&f, _)| f)
+        .collect();
+    visible.sort_by(f32::total_cmp);
+    let spread = visible[visible.len() * 9 / 10] - visible[visible.len() / 10];
+    assert!(ratio < 0.8, "DOS keeps {ratio} of the sky's light");
+    assert!(
+        spread > 0.2,
+        "DOS's occlusion spans {spread} between its deciles"
+    );
+
+    // The key light's shadows: of the visible content, a good share lies in shadow and a good
+    // share in light (a sun along the view would light it all, one behind it shadow it all).
+    let (scene, volume) = example("bonsai-sun", None);
+    let lit = render(&scene, &volume);
+    let shadow = lit.factor("shadow").unwrap();
+    let visible: Vec<f32> = shadow
+        .iter()
+        .zip(&lit.rgba)
+        .filter(|(_, p)| p[3] > 0.5)
+        .map(|(&f, _)| f)
+        .collect();
+    let dark = visible.iter().filter(|&&f| f < 0.5).count() as f64 / visible.len() as f64;
+    assert!(
+        (0.15..0.85).contains(&dark),
+        "{dark} of the content in shadow"
+    );
+}
