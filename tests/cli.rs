@@ -16,6 +16,20 @@ fn occlux(args: &[&str]) -> Output {
         .expect("the occlux binary runs")
 }
 
+/// `occlux render SCENE -o OUT --device cpu` with `extra` arguments.
+fn render_on_cpu(scene: &Path, out: &Path, extra: &[&str]) -> Output {
+    let mut args = vec![
+        "render",
+        scene.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+        "--device",
+        "cpu",
+    ];
+    args.extend(extra);
+    occlux(&args)
+}
+
 /// Runs a command that writes a JSON report to `json` (`-o`), and reads the report.
 fn report_of(args: &[&str], json: &Path) -> serde_json::Value {
     let mut all = args.to_vec();
@@ -152,14 +166,7 @@ fn info_suggests_a_classification_a_scene_takes() {
     )
     .unwrap();
     let out = dir.path().join("out");
-    let run = occlux(&[
-        "render",
-        scene.to_str().unwrap(),
-        "-o",
-        out.to_str().unwrap(),
-        "--device",
-        "cpu",
-    ]);
+    let run = render_on_cpu(&scene, &out, &[]);
     let notices = String::from_utf8_lossy(&run.stderr);
     assert!(run.status.success(), "{notices}");
     assert!(
@@ -788,15 +795,7 @@ height = 10
     )
     .unwrap();
     let out = dir.path().join("out");
-    let run = occlux(&[
-        "render",
-        scene_path.to_str().unwrap(),
-        "-o",
-        out.to_str().unwrap(),
-        "--device",
-        "cpu",
-        "--float32",
-    ]);
+    let run = render_on_cpu(&scene_path, &out, &["--float32"]);
     assert!(
         run.status.success(),
         "{}",

@@ -4,6 +4,9 @@
 //! robust windows against outliers and wrapped values on real data; content framing for
 //! perspective and orthographic cameras; the optical-depth notice.
 
+mod common;
+
+use common::scivis_dir;
 use glam::Vec3;
 use occlux::classify::presets::PRESETS;
 use occlux::framing::{self, content};
@@ -15,19 +18,6 @@ use occlux::volume::{self, LoadOptions, Volume};
 use std::path::{Path, PathBuf};
 
 const SIDE: u32 = 48;
-
-fn scivis_dir() -> PathBuf {
-    let dir = Path::new(concat!(
-        env!("CARGO_MANIFEST_DIR"),
-        "/../shared/data/scivis/"
-    ));
-    assert!(
-        dir.is_dir(),
-        "{} is missing: these tests need ../shared (the shared data folder beside the checkout; CI has it)",
-        dir.display()
-    );
-    dir.to_path_buf()
-}
 
 fn shared_volumes() -> Vec<(String, PathBuf)> {
     let mut names: Vec<(String, PathBuf)> = std::fs::read_dir(scivis_dir())

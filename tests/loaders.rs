@@ -1,5 +1,7 @@
 //! Volume loaders: the shared real volumes, round trips through every format, and bad input.
 
+mod common;
+
 use flate2::read::GzDecoder;
 use flate2::write::GzEncoder;
 use flate2::Compression;
@@ -180,16 +182,7 @@ fn garbage(count: usize) -> Vec<u8> {
 // The shared real volumes
 
 fn scivis(name: &str) -> PathBuf {
-    let dir = Path::new(concat!(
-        env!("CARGO_MANIFEST_DIR"),
-        "/../shared/data/scivis/"
-    ));
-    assert!(
-        dir.is_dir(),
-        "{} is missing: these tests need ../shared (the shared data folder beside the checkout; CI has it)",
-        dir.display()
-    );
-    dir.join(format!("{name}.nrrd"))
+    common::scivis_dir().join(format!("{name}.nrrd"))
 }
 
 /// Decodes a shared volume without the library: the gzip payload after the header's blank
