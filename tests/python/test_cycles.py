@@ -340,16 +340,24 @@ def test_refuses_what_cycles_cannot_reproduce(phantom, ramp, tmp_path):
     many = ", ".join(f"{{ value = {v}, sigma_t = 1 }}" for v in range(oc.MAX_RAMP_STOPS + 1))
     cases = {
         "many": (f"points = [{many}]\n", "holds at most 32"),
-        "2d": ('preset = "boundary-2d"\n', "2D transfer function"),
+        "2d": ('preset = "boundary-2d"\n', "2D transfer function"),  # with units normalized
     }
     for name, (classification, message) in cases.items():
         scene = tmp_path / f"{name}.toml"
-        scene.write_text(text[:start] + classification + text[end:])
+        body = text[:start] + classification + text[end:]
+        if classification.startswith("preset"):  # presets are placed on normalised values
+            body = body.replace('units = "raw"', 'units = "normalized"')
+        scene.write_text(body)
         with pytest.raises(oc.HarnessError, match=message):
             oc.load_scene(scene)
-    # A preset is a 1D transfer function too, in normalized units.
+    # A preset is a 1D transfer function too, in normalized units placed on the tooth's
+    # robust window (lo, hi inside the uint8 range): its points at lo + n (hi - lo).
     tooth = oc.load_scene(Path(__file__).resolve().parents[2] / "examples" / "tooth.toml")
-    assert [p.value for p in tooth.points] == pytest.approx([0, 30.6, 63.75, 114.75, 153, 255])
+    values = [p.value for p in tooth.points]
+    lo, hi = values[0], values[-1]
+    assert 0 <= lo < hi <= 255, values
+    normalised = np.array([0, 0.12, 0.25, 0.45, 0.6, 1.0])
+    assert values == pytest.approx(lo + normalised * (hi - lo), rel=1e-5)
     assert tooth.points[-1].sigma_t == pytest.approx(14.0)
     with pytest.raises(oc.HarnessError, match="Cycles can reproduce ambient, single, multiple"):
         oc.build_scene(phantom, ramp.parent / "ramp.vdb", "cone")
