@@ -25,6 +25,7 @@ REPO = HERE.parent
 SOURCES = (
     "__init__.py",
     "properties.py",
+    "material.py",
     "nodes.py",
     "panel.py",
     "scenes.py",

@@ -58,17 +58,29 @@ class VIEW3D_PT_occlux(bpy.types.Panel):
         composite.filepath = settings.last_exr
         layout.separator()
         column = layout.column(align=True)
-        column.prop(settings, "check_estimator")
+        column.prop(settings, "check_subject")
+        if settings.check_subject == "FIGURE":
+            column.prop(settings, "check_method")
+        else:
+            column.prop(settings, "check_estimator")
         column.prop(settings, "check_size")
         column.prop(settings, "check_spp")
         column.prop(settings, "check_seeds")
         layout.operator("occlux.check_cycles", icon="RENDER_STILL")
         if settings.check_report:
             box = layout.box()
-            verdict = "agree within noise" if settings.check_agrees else "DISAGREE"
-            box.label(text=f"RMSE {settings.check_rmse:.4g}: {verdict}")
-            box.label(text=f"RMSE / noise {settings.check_rmse_over_noise:.3f}")
-            box.label(text=f"RMS z {settings.check_rms_z:.3f}")
+            if settings.check_report.endswith("-figure-report.json"):
+                box.label(text=f"Relative RMSE {settings.check_rel_rmse:.3f}")
+                box.label(text=f"Bias {settings.check_bias:+.1%}")
+                box.label(
+                    text=f"Occlux {settings.check_occlux_seconds:.2f} s, "
+                    f"Cycles {settings.check_cycles_seconds:.1f} s"
+                )
+            else:
+                verdict = "agree within noise" if settings.check_agrees else "DISAGREE"
+                box.label(text=f"RMSE {settings.check_rmse:.4g}: {verdict}")
+                box.label(text=f"RMSE / noise {settings.check_rmse_over_noise:.3f}")
+                box.label(text=f"RMS z {settings.check_rms_z:.3f}")
             box.label(text=settings.check_report)
         if settings.status:
             layout.separator()

@@ -13,7 +13,7 @@ from bpy.props import (
     StringProperty,
 )
 
-from . import nodes, scenes
+from . import material, scenes
 
 # Limits, defaults and choices that the core's method registry (`occlux.methods()`) knows come
 # from it, read when the add-on is registered: the extension installs its `occlux` wheel before
@@ -78,9 +78,9 @@ RAW_TYPES = ("uint8", "int8", "uint16", "int16", "uint32", "int32", "float32", "
 
 def _update_ao_factor(settings: OccluxSettings, context: bpy.types.Context) -> None:
     """Moves the AO factor node of every Occlux material to the new value."""
-    for material in bpy.data.materials:
-        if material.node_tree and nodes.AO_FACTOR in material.node_tree.nodes:
-            node = material.node_tree.nodes[nodes.AO_FACTOR]
+    for shading in bpy.data.materials:
+        if shading.node_tree and material.AO_FACTOR in shading.node_tree.nodes:
+            node = shading.node_tree.nodes[material.AO_FACTOR]
             node.outputs[0].default_value = settings.ao_factor
 
 
@@ -175,15 +175,25 @@ class OccluxSettings(bpy.types.PropertyGroup):
         name="AO shading",
         description="What the `ao` grid drives in the material",
         items=[
-            ("ALBEDO", "Darken albedo", "Multiply the albedo by mix(1, ao, strength)"),
-            ("EMISSION", "Emission", "Emit the albedo colour with strength x ao"),
+            (
+                "AMBIENT",
+                "Ambient light",
+                "Emit the world's light the grid lets reach each point, sigma_t x albedo x "
+                "world x mix(1, ao, strength), and light only camera rays by the world: "
+                "Occlux's AO-shaded render in Cycles; suns and lamps still scatter",
+            ),
+            (
+                "ALBEDO",
+                "Darken albedo",
+                "Multiply the albedo by mix(1, ao, strength); the world lights the volume as "
+                "well (a stylised look: crevices occluded twice)",
+            ),
         ],
-        default="ALBEDO",
+        default="AMBIENT",
     )
     ao_factor: FloatProperty(
         name="AO strength",
-        description="How much the `ao` grid darkens the albedo (0: not at all, 1: fully) or, "
-        "for emission, the emission strength at ao = 1",
+        description="How much the `ao` grid shades (0: not at all, 1: fully)",
         min=0.0,
         soft_max=1.0,
         default=1.0,
@@ -238,6 +248,36 @@ class OccluxSettings(bpy.types.PropertyGroup):
         description="The EXR the last Occlux render wrote (what Composite reads)",
         subtype="FILE_PATH",
     )
+    check_subject: EnumProperty(
+        name="Check",
+        description="What Check Against Cycles checks",
+        items=[
+            (
+                "FIGURE",
+                "The figure",
+                "The chosen Occlux method against Cycles' path-traced truth of the same scene: "
+                "relative RMSE and bias over the volume's pixels, times, error map",
+            ),
+            (
+                "REFERENCE",
+                "Validate the reference",
+                "Occlux's Monte Carlo reference against Cycles, within noise (z scores)",
+            ),
+        ],
+        default="FIGURE",
+    )
+    check_method: EnumProperty(
+        name="Method",
+        description="The Occlux method whose figure is checked, with the panel's settings",
+        items=[
+            ("ao", "AO-shaded", "Ambient light times the AO method's openness; truth: the "
+             "world scattered once"),
+            ("dos", "DOS", "Directional occlusion shading; truth: the world scattered once"),
+            ("ipsvi", "IPSVI", "Image plane sweep volume illumination; truth: the suns and "
+             "point lamps scattered once (or 8 times, for its multiple scattering)"),
+        ],
+        default="ao",
+    )  # fmt: skip
     check_estimator: EnumProperty(
         name="Check lighting",
         description="What the Cycles check renders (both renderers, same scene)",
@@ -252,7 +292,7 @@ class OccluxSettings(bpy.types.PropertyGroup):
         description="Longest side of the check's images in pixels (the render's aspect)",
         min=8,
         soft_max=512,
-        default=64,
+        default=256,
     )
     check_spp: IntProperty(
         name="Check samples",
@@ -274,6 +314,10 @@ class OccluxSettings(bpy.types.PropertyGroup):
     check_rmse_over_noise: FloatProperty(name="RMSE / noise", options={"SKIP_SAVE"})
     check_rms_z: FloatProperty(name="RMS z", options={"SKIP_SAVE"})
     check_agrees: bpy.props.BoolProperty(name="Agree", options={"SKIP_SAVE"})
+    check_rel_rmse: FloatProperty(name="Relative RMSE", options={"SKIP_SAVE"})
+    check_bias: FloatProperty(name="Bias", options={"SKIP_SAVE"})
+    check_occlux_seconds: FloatProperty(name="Occlux time", options={"SKIP_SAVE"})
+    check_cycles_seconds: FloatProperty(name="Cycles time", options={"SKIP_SAVE"})
     check_report: StringProperty(name="Check report", subtype="FILE_PATH", options={"SKIP_SAVE"})
 
     # What the running or last job says, shown in the panel (written on the main thread).

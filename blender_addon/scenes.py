@@ -15,6 +15,8 @@ from typing import Any
 import bpy
 import occlux
 
+from .material import CAMERA_ONLY
+
 # The add-on maps the world to an ambient light, sun lamps to directional lights and point lamps
 # to point lights; these are the kinds of the registry's `lights` it can give a method.
 WORLD, SUN, POINT = "ambient", "directional", "point"
@@ -52,13 +54,18 @@ class VolumeInput:
     memory_budget_mb: int
 
     @staticmethod
-    def from_settings(settings) -> VolumeInput:
-        path = Path(bpy.path.abspath(settings.volume_path))
-        if not settings.volume_path or not path.is_file():
-            raise FileNotFoundError(f"no volume file at '{path}'")
+    def from_settings(settings, path: str | None = None) -> VolumeInput:
+        """The panel's volume settings, for the file `path` as typed (the panel's Volume if
+        None)."""
+        typed = settings.volume_path if path is None else path
+        if not typed:
+            raise FileNotFoundError("no volume file set (Occlux panel > Volume)")
+        resolved = Path(bpy.path.abspath(typed))
+        if not resolved.is_file():
+            raise FileNotFoundError(f"no volume file at '{resolved}'")
         return VolumeInput(
-            path.resolve(),
-            settings.volume_path,
+            resolved.resolve(),
+            typed,
             tuple(settings.raw_dims),
             settings.raw_type,
             tuple(settings.raw_spacing),
@@ -87,6 +94,23 @@ class VolumeInput:
                 "spacing": _floats(self.raw_spacing),
             }
         return section
+
+
+def volume_object(context: bpy.types.Context) -> bpy.types.Object | None:
+    """The active object if it is a volume Occlux loaded (it keeps its file as
+    `occlux_source`): the object the operators act on."""
+    obj = context.view_layer.objects.active
+    if obj is not None and obj.type == "VOLUME" and "occlux_source" in obj:
+        return obj
+    return None
+
+
+def selected_source(context: bpy.types.Context) -> VolumeInput:
+    """The volume the operators act on: the active Occlux volume object's file, else the
+    panel's Volume (with the panel's raw layout, size and memory budget either way)."""
+    obj = volume_object(context)
+    path = None if obj is None else str(obj["occlux_source"])
+    return VolumeInput.from_settings(context.scene.occlux, path)
 
 
 def classification_section(settings) -> dict[str, Any]:
@@ -139,6 +163,10 @@ def world_radiance(scene: bpy.types.Scene) -> tuple[float, float, float]:
     if output is None or not output.inputs["Surface"].links:
         return tuple(world.color)
     background = output.inputs["Surface"].links[0].from_node
+    if background.name == CAMERA_ONLY and background.inputs[2].links:
+        # The world kept from all but camera rays by an AMBIENT-shaded AO material (whose
+        # emission carries its light): still the scene's ambient light.
+        background = background.inputs[2].links[0].from_node
     colour, strength = background.inputs["Color"], background.inputs["Strength"]
     if background.bl_idname != "ShaderNodeBackground" or colour.links or strength.links:
         raise ValueError(
@@ -147,10 +175,11 @@ def world_radiance(scene: bpy.types.Scene) -> tuple[float, float, float]:
     return tuple(c * strength.default_value for c in colour.default_value[:3])
 
 
-def lamp(obj: bpy.types.Object, kinds: set[str]) -> dict[str, Any]:
+def lamp(obj: bpy.types.Object, kinds: set[str]) -> dict[str, Any] | None:
     """A visible lamp as a light of `kinds`: a sun as a directional light (irradiance = strength
     x colour, towards the sun's +Z), a point lamp as a point light of radiant intensity
-    power / (4 pi) x colour (Cycles' convention; its radius is not modelled: hard shadows)."""
+    power / (4 pi) x colour (Cycles' convention; its radius is not modelled: hard shadows).
+    None for a lamp the method does not render, or that the add-on does not map (spot, area)."""
     if obj.data.type == "SUN" and SUN in kinds:
         return {
             "type": SUN,
@@ -163,29 +192,62 @@ def lamp(obj: bpy.types.Object, kinds: set[str]) -> dict[str, Any]:
             "position": _floats(obj.matrix_world.translation),
             "intensity": [c * obj.data.energy / (4.0 * math.pi) for c in obj.data.color],
         }
-    takes = [LAMP_NAMES[k] for k in (SUN, POINT) if k in kinds]
-    kind = " and ".join(takes) if takes else "only the world's ambient light"
-    raise ValueError(f"light '{obj.name}': this takes {kind}; hide it from renders")
+    return None
 
 
-def lighting(scene: bpy.types.Scene, kinds: Iterable[str]) -> dict[str, Any]:
+def takes(kinds: set[str]) -> str:
+    """The lights of `kinds` as a message names them."""
+    names = (["the world's ambient light"] if WORLD in kinds else []) + [
+        LAMP_NAMES[k] for k in (SUN, POINT) if k in kinds
+    ]
+    return " and ".join(names) if names else "no light"
+
+
+@dataclass(frozen=True)
+class Lighting:
+    """The scene's `background` and `lights`, and a note naming the visible lamps the method
+    leaves out (empty when it renders them all)."""
+
+    section: dict[str, Any]
+    left_out: str
+
+
+def lighting(scene: bpy.types.Scene, kinds: Iterable[str]) -> Lighting:
     """The `background` and `lights` of the scene: the world as an ambient light (when the
     method renders ambient light; it stays the background either way) and the visible lamps
     (`lamp`). `kinds` are the light kinds the method renders (its registry entry's `lights`); a
-    lamp the method cannot render, or that the add-on does not map, is refused."""
+    lamp the method cannot render, or that the add-on does not map, is left out and named in
+    the note, so that Blender's default Light does not stop a render lit by the world."""
     kinds = set(kinds)
     ambient = _floats(world_radiance(scene))
     lights: list[dict[str, Any]] = []
     if WORLD in kinds and max(ambient) > 0.0:
         lights.append({"type": WORLD, "radiance": ambient})
+    skipped: list[str] = []
     for obj in scene.objects:
         if obj.type == "LIGHT" and not obj.hide_render:
-            lights.append(lamp(obj, kinds))
+            light = lamp(obj, kinds)
+            if light is None:
+                skipped.append(f"'{obj.name}' ({obj.data.type.lower()})")
+            else:
+                lights.append(light)
     if not lights:
         wanted = ["give the world a colour"] if WORLD in kinds else []
         wanted += [f"add a {LAMP_NAMES[k][:-1]}" for k in (SUN, POINT) if k in kinds]
         raise ValueError(f"the scene has no light: {' or '.join(wanted)}")
-    return {"background": ambient, "lights": lights}
+    note = ""
+    if skipped:
+        lamps = ", ".join(skipped)
+        note = f"left out light {lamps}: this method renders {takes(kinds)}"
+    return Lighting({"background": ambient, "lights": lights}, note)
+
+
+@dataclass(frozen=True)
+class Described:
+    """The scene file's tree of a Blender scene, and what of the scene it leaves out."""
+
+    tree: dict[str, Any]
+    left_out: str
 
 
 def scene_tree(
@@ -195,19 +257,20 @@ def scene_tree(
     height: int,
     kinds: Iterable[str] = (WORLD, SUN),
     render: dict[str, Any] | None = None,
-) -> dict[str, Any]:
+) -> Described:
     """The whole scene for the scene's volume settings, camera and lights (of `kinds`), and the
     `render` section (the method and its parameters) if given."""
     scene = context.scene
+    lights = lighting(scene, kinds)
     tree = {
         "volume": source.section(),
         "classification": classification_section(scene.occlux),
         "camera": camera_section(scene, width, height),
-        **lighting(scene, kinds),
+        **lights.section,
     }
     if render is not None:
         tree["render"] = render
-    return tree
+    return Described(tree, lights.left_out)
 
 
 def volume_tree(source: VolumeInput, settings) -> dict[str, Any]:

@@ -61,7 +61,8 @@ struct Slab {
 // read; this slab's, written.
 @group(0) @binding(5) var<storage, read> previous: array<f32>;
 @group(0) @binding(6) var<storage, read_write> next: array<f32>;
-// Eye buffer: radiance and transmittance; depth and the occlusion factor there.
+// Eye buffer: radiance and transmittance; depth and the occlusion layer's P (the light each
+// sample receives weighted by its contribution, summed).
 @group(0) @binding(7) var<storage, read_write> eye: array<vec4<f32>>;
 @group(0) @binding(8) var<storage, read_write> eye_depth: array<vec2<f32>>;
 @group(0) @binding(9) var<uniform> slab: Slab;
@@ -149,9 +150,12 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
             }
             let light = alpha * o.albedo * params.ambient * lit + emitted(o, alpha, dt);
             let transmittance = e.w * (1.0 - alpha);
+            var at = eye_depth[index];
             if (e.w > 0.5 && transmittance <= 0.5) {
-                eye_depth[index] = vec2<f32>(ta + log(2.0 * e.w) / o.sigma_t, v);
+                at.x = ta + log(2.0 * e.w) / o.sigma_t;
             }
+            at.y = at.y + e.w * alpha * lit;
+            eye_depth[index] = at;
             eye[index] = vec4<f32>(e.xyz + e.w * light, transmittance);
             tau = o.sigma_t * dt * rate / d;
         }

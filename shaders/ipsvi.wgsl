@@ -92,8 +92,10 @@ struct PixelOut {
     emitted: vec3<f32>,
     transmittance: f32,
     depth: f32,
-    irradiance_at_depth: f32,
-    lit_at_depth: f32,
+    // The light's transmittance and the grey irradiance at each sample, weighted by the
+    // sample's contribution, summed (cpu::PixelOut's lit and irradiance).
+    lit: f32,
+    irradiance: f32,
 };
 
 // Where a point lies in the cache (cache::Place): the four texels around it with their
@@ -121,12 +123,13 @@ struct Held {
 @group(0) @binding(4) var<storage, read> occupancy: array<u32>;
 // The pixels (x + width * y) of this dispatch, in sweep order.
 @group(0) @binding(5) var<storage, read> order: array<u32>;
-// Per pixel, summed over the lights: scattered light (rgb) and the irradiance at the depth
-// times the light's transmittance there (a).
+// Per pixel, summed over the lights: scattered light (rgb) and the shadow layer's W_l P_l (a;
+// ipsvi::Gathered's lit).
 @group(0) @binding(6) var<storage, read_write> scattered_out: array<vec4<f32>>;
 // Per pixel, from the first pass: emission (rgb) and the view's transmittance (a).
 @group(0) @binding(7) var<storage, read_write> view_out: array<vec4<f32>>;
-// Per pixel: the depth (first pass) and the irradiance there (summed over the lights).
+// Per pixel: the depth (first pass) and the shadow layer's W_l summed over the lights
+// (ipsvi::Gathered's irradiance).
 @group(0) @binding(8) var<storage, read_write> depth_out: array<vec2<f32>>;
 // Per cache texel, with multiple scattering: the optical depth of its light ray through the
 // whole box (written by `chord_depths`, read by the trace; one element when unused).
@@ -566,12 +569,13 @@ fn trace(xy: vec2<u32>) -> PixelOut {
         }
         out.scattered = out.scattered + out.transmittance * alpha * (o.albedo * per_irradiance * e);
         out.emitted = out.emitted + out.transmittance * emitted(o, alpha, dt);
+        // The shadow layer: the sample's light and irradiance with its contribution weight.
+        let weight = out.transmittance * alpha;
+        out.lit = out.lit + weight * light_t;
+        out.irradiance = out.irradiance + weight * ((e.x + e.y + e.z) / 3.0);
         let next = out.transmittance * (1.0 - alpha);
         if (out.transmittance > 0.5 && next <= 0.5) {
             out.depth = ta + log(2.0 * out.transmittance) / o.sigma_t;
-            let grey = (e.x + e.y + e.z) / 3.0;
-            out.irradiance_at_depth = grey;
-            out.lit_at_depth = grey * light_t;
         }
         out.transmittance = next;
         if (out.transmittance < params.ert_threshold) {
@@ -591,14 +595,14 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
     let width = params.view.size.x;
     let out = trace(vec2<u32>(pixel % width, pixel / width));
     let light = scattered_out[pixel];
-    scattered_out[pixel] = vec4<f32>(light.xyz + out.scattered, light.w + out.lit_at_depth);
+    scattered_out[pixel] = vec4<f32>(light.xyz + out.scattered, light.w + out.irradiance * out.lit);
     let at_depth = depth_out[pixel];
     var depth = at_depth.x;
     if (params.first_pass == 1u) {
         view_out[pixel] = vec4<f32>(out.emitted, out.transmittance);
         depth = out.depth;
     }
-    depth_out[pixel] = vec2<f32>(depth, at_depth.y + out.irradiance_at_depth);
+    depth_out[pixel] = vec2<f32>(depth, at_depth.y + out.irradiance);
 }
 
 // cpu::chord_depths: the optical depth of texel's cache ray through the whole box, from the

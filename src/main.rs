@@ -38,8 +38,9 @@ struct Cli {
 
 #[derive(Subcommand)]
 enum Command {
-    /// Render a scene file into OUT/ (EXR with layers beauty and depth, plus dos and occlusion
-    /// for method = "dos" or ipsvi and shadow for "ipsvi", and a PNG preview).
+    /// Render a scene file into OUT/ (EXR with layers beauty and depth, plus occlusion for
+    /// method = "dos" or shadow for "ipsvi" and "half-angle": channels V, the factor
+    /// premultiplied by coverage, and A, the coverage; and a PNG preview).
     Render {
         scene: PathBuf,
         #[arg(short, long, default_value = "occlux-out")]

@@ -131,8 +131,9 @@ impl Default for OutputOptions {
     }
 }
 
-/// Writes `OUT/STEM.exr` (layers `beauty` and `depth`, plus the method's shaded layer and factor:
-/// `dos` and `occlusion`, `ipsvi` and `shadow`; camera and parameters in the header) and
+/// Writes `OUT/STEM.exr` (layers `beauty` and `depth`, plus the method's shading factor:
+/// `occlusion` for DOS, `shadow` for IPSVI and half-angle slicing, as channels V (premultiplied
+/// by coverage) and A (coverage); camera and parameters in the header) and
 /// the preview `OUT/STEM.png`, creating `out_dir` if needed. Returns the paths written.
 pub fn write_render(
     img: &RenderImage,

@@ -766,10 +766,11 @@ fn bench_ao_times_each_radius_on_a_crop_and_refuses_bad_requests() {
     }
 }
 
-/// `occlux render` of a small CT phantom scene with `lights` and `render`: the EXR's shaded
-/// layer `method` equals `beauty` and the in-process render, and its factor layer `factor`
-/// equals the render's factor, which is below 1 somewhere.
-fn assert_render_writes_factor_layers(lights: &str, render: &str, method: &str, factor: &str) {
+/// `occlux render` of a small CT phantom scene with `lights` and `render`: the EXR has the
+/// layers `beauty`, `depth` and the factor's layer `factor` (channels A and V: the render's
+/// coverage, equal to beauty's alpha, and its premultiplied factor, below the coverage
+/// somewhere), and nothing else: no copy of the shaded image under the method's name.
+fn assert_render_writes_factor_layers(lights: &str, render: &str, factor: &str) {
     use occlux::export::exr::read_exr;
     let dir = tempfile::tempdir().unwrap();
     let scene_path = dir.path().join("scene.toml");
@@ -807,40 +808,48 @@ height = 10
         .unwrap()
         .image;
     let exr = read_exr(&out.join("scene.exr")).unwrap();
-    let shaded = exr.layer(method).expect("the method's layer");
+    let names: Vec<&str> = exr.layers.iter().map(|l| l.name.as_str()).collect();
+    assert_eq!(names, ["beauty", "depth", factor]);
     let beauty = exr.layer("beauty").unwrap();
-    assert_eq!(shaded.pixels, beauty.pixels);
     let want: Vec<f32> = img.rgba.iter().flatten().copied().collect();
-    assert_eq!(shaded.pixels.len(), want.len());
     // Channels come back in the file's (sorted) order: match them by name.
-    for (c, name) in shaded.channels.iter().enumerate() {
-        let k = ["R", "G", "B", "A"].iter().position(|x| x == name).unwrap();
-        for (p, got) in shaded.pixels.iter().skip(c).step_by(4).enumerate() {
+    for name in ["R", "G", "B", "A"] {
+        let k = ["R", "G", "B", "A"]
+            .iter()
+            .position(|x| *x == name)
+            .unwrap();
+        let got = beauty.channel(name).unwrap();
+        for (p, got) in got.iter().enumerate() {
             assert_eq!(*got, want[4 * p + k], "{name}[{p}]");
         }
     }
     let layer = exr.layer(factor).expect("the factor's layer");
-    assert_eq!(layer.pixels, img.factor(factor).unwrap());
-    assert!(img.factor(factor).unwrap().iter().any(|o| *o < 1.0));
+    assert_eq!(layer.channels, ["A", "V"]);
+    let values = &img.factor(factor).unwrap().values;
+    let (p, a) = (layer.channel("V").unwrap(), layer.channel("A").unwrap());
+    assert_eq!(p, values.iter().map(|v| v[0]).collect::<Vec<_>>());
+    assert_eq!(a, values.iter().map(|v| v[1]).collect::<Vec<_>>());
+    assert_eq!(a, beauty.channel("A").unwrap(), "the coverage is the alpha");
+    assert!(p.iter().zip(&a).all(|(p, a)| *p <= *a));
+    assert!(p.iter().zip(&a).any(|(p, a)| *p < *a - 0.01));
+    assert!(a.contains(&0.0) && a.iter().any(|a| *a > 0.5));
 }
 
 #[test]
-fn render_with_method_dos_writes_dos_and_occlusion_layers() {
+fn render_with_method_dos_writes_the_occlusion_layer() {
     assert_render_writes_factor_layers(
         "[[lights]]\ntype = \"ambient\"\nradiance = 0.5",
         "method = \"dos\"\ntheta_deg = 60\ngrid = 2",
-        "dos",
         "occlusion",
     );
 }
 
 #[test]
-fn render_with_method_ipsvi_writes_ipsvi_and_shadow_layers() {
+fn render_with_method_ipsvi_writes_the_shadow_layer() {
     assert_render_writes_factor_layers(
         "[[lights]]\ntype = \"directional\"\ndirection = [-0.3, -1.0, 1.2]\nirradiance = 3.0\n\
          [[lights]]\ntype = \"point\"\nposition = [1.5, -2.5, 2.0]\nintensity = 30.0",
         "method = \"ipsvi\"\nline_width = 2",
-        "ipsvi",
         "shadow",
     );
 }

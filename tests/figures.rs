@@ -397,13 +397,15 @@ fn the_bonsai_examples_show_what_each_method_is_for() {
     let (scene, volume) = example("bonsai-dos", Some(dos_lines));
     let open = render(&scene, &volume);
     let ratio = light(&dos) / light(&open);
+    // The occlusion of what each pixel shows: the layer's P / A.
     let mut visible: Vec<f32> = dos
         .factor("occlusion")
         .unwrap()
-        .iter()
+        .unpremultiplied()
+        .into_iter()
         .zip(&dos.rgba)
         .filter(|(_, p)| p[3] > 0.5)
-        .map(|(&f, _)| f)
+        .map(|(f, _)| f)
         .collect();
     visible.sort_by(f32::total_cmp);
     let spread = visible[visible.len() * 9 / 10] - visible[visible.len() / 10];
@@ -417,12 +419,12 @@ fn the_bonsai_examples_show_what_each_method_is_for() {
     // share in light (a sun along the view would light it all, one behind it shadow it all).
     let (scene, volume) = example("bonsai-sun", None);
     let lit = render(&scene, &volume);
-    let shadow = lit.factor("shadow").unwrap();
+    let shadow = lit.factor("shadow").unwrap().unpremultiplied();
     let visible: Vec<f32> = shadow
-        .iter()
+        .into_iter()
         .zip(&lit.rgba)
         .filter(|(_, p)| p[3] > 0.5)
-        .map(|(&f, _)| f)
+        .map(|(f, _)| f)
         .collect();
     let dark = visible.iter().filter(|&&f| f < 0.5).count() as f64 / visible.len() as f64;
     assert!(

@@ -44,7 +44,7 @@ fn finite_problems(image: &RenderImage) -> String {
         .iter()
         .flatten()
         .chain(&image.depth)
-        .chain(image.factor.iter().flat_map(|f| &f.values));
+        .chain(image.factor.iter().flat_map(|f| f.values.as_flattened()));
     let (mut nan, mut inf) = (0usize, 0usize);
     for v in values {
         nan += v.is_nan() as usize;

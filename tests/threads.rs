@@ -45,7 +45,7 @@ fn bits(rendered: &Rendered) -> Vec<u32> {
         .iter()
         .flatten()
         .chain(&image.depth)
-        .chain(image.factor.iter().flat_map(|f| &f.values))
+        .chain(image.factor.iter().flat_map(|f| f.values.as_flattened()))
         .chain(rendered.grids.iter().flat_map(|g| g.volume.values()))
         .map(|v| v.to_bits())
         .collect()

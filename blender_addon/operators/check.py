@@ -1,9 +1,15 @@
-"""The check against Cycles: Occlux's Monte Carlo reference and Cycles (through the harness
-`occlux.cycles`) render the same volume, camera and lights; the add-on compares them pixel by
-pixel, shows the figures and loads the error map."""
+"""The check against Cycles, of the figure or of the reference. Both render the active Occlux
+volume with the scene's camera and lights through the harness `occlux.cycles`, which maps the
+Occlux scene onto Cycles (docs/cycles-mapping.md):
+- The figure: the chosen Occlux method (AO-shaded, DOS, IPSVI, with the panel's settings)
+  against Cycles' path-traced truth of its lighting (the world for AO and DOS, suns and point
+  lamps for IPSVI): DESIGN.md's relative RMSE and bias over the volume's pixels, both times,
+  and a map of the difference with a colour key.
+- The reference: Occlux's Monte Carlo reference against Cycles, within noise (z scores)."""
 
 from __future__ import annotations
 
+import json
 import math
 import shutil
 import tempfile
@@ -19,6 +25,8 @@ import occlux
 
 from .. import scenes
 from .jobs import JobProgress, OccluxJob, report_dir
+from .render import dos_section, ipsvi_section
+from .volume import ao_section
 
 
 @dataclass(frozen=True)
@@ -41,21 +49,164 @@ def image_size(render, longest: int) -> tuple[int, int]:
     return max(1, round(w * scale)), max(1, round(h * scale))
 
 
+@dataclass(frozen=True)
+class Figure:
+    """An Occlux method's render, the scene it rendered, and what Cycles' truth of it needs: the
+    VDB of its volume (in a temporary folder), the estimator of its lighting, its bounces and
+    phase."""
+
+    folder: Path
+    stem: str
+    method: str
+    scene: Any
+    tree: dict
+    vdb: Path
+    volume: Any
+    image: np.ndarray
+    seconds: float
+    estimator: str
+    bounces: int
+    g: float
+
+
+# Each checked method: its `render` section from the panel and the lights it renders.
+FIGURE_METHODS = {
+    "ao": (ao_section, (scenes.WORLD,)),
+    "dos": (dos_section, (scenes.WORLD,)),
+    "ipsvi": (ipsvi_section, (scenes.SUN, scenes.POINT)),
+}
+# Volume bounces of Cycles' truth for IPSVI's multiple scattering (its references' count).
+MULTIPLE_BOUNCES = 8
+
+
+def truth_of(method: str, settings) -> tuple[str, int, float]:
+    """Cycles' estimator, volume bounces and phase asymmetry for the truth of `method`'s
+    lighting: the world scattered once for AO and DOS; IPSVI's lamps scattered once, or
+    MULTIPLE_BOUNCES times for its multiple-scattering term, with its anisotropy."""
+    if method != "ipsvi":
+        return "ambient", 0, 0.0
+    if settings.ipsvi_scattering == "multiple":
+        return "multiple", MULTIPLE_BOUNCES, settings.ipsvi_g
+    return "single", 0, settings.ipsvi_g
+
+
 class OCCLUX_OT_check_cycles(OccluxJob, bpy.types.Operator):
-    """Render the volume with Occlux's Monte Carlo reference and with Cycles (same camera and
-    lights), compare them pixel by pixel, and load the error map"""
+    """Check the figure (the chosen Occlux method against Cycles' path-traced truth of the same
+    scene: relative RMSE, bias, times, error map) or validate the reference (Occlux's Monte
+    Carlo reference against Cycles, within noise)"""
 
     bl_idname = "occlux.check_cycles"
     bl_label = "Check Against Cycles"
     bl_options = {"REGISTER"}
 
-    def prepare(self, context: bpy.types.Context) -> Callable[[JobProgress], Reference]:
+    def prepare(self, context: bpy.types.Context) -> Callable[[JobProgress], Any]:
+        if context.scene.occlux.check_subject == "FIGURE":
+            return self.prepare_figure(context)
+        return self.prepare_reference(context)
+
+    def finish(self, context: bpy.types.Context, result: Any) -> str:
+        if isinstance(result, Figure):
+            message = self.finish_figure(context, result)
+        else:
+            message = self.finish_reference(context, result)
+        return f"{message}; {self._left_out}" if self._left_out else message
+
+    def prepare_figure(self, context: bpy.types.Context) -> Callable[[JobProgress], Figure]:
+        settings = context.scene.occlux
+        method = settings.check_method
+        section, kinds = FIGURE_METHODS[method]
+        source = scenes.selected_source(context)
+        width, height = image_size(context.scene.render, settings.check_size)
+        described = scenes.scene_tree(
+            context, source, width, height, kinds, render=section(settings)
+        )
+        scene = scenes.build(described.tree)
+        self._left_out = described.left_out
+        estimator, bounces, g = truth_of(method, settings)
+        device = settings.device
+
+        def work(progress: JobProgress) -> Figure:
+            folder = Path(tempfile.mkdtemp(prefix="occlux-check-"))
+            try:
+                volume = scenes.load_volume(scene, source)
+                vdb = folder / f"{source.stem}.vdb"
+                occlux.write_vdb(vdb, {"value": volume})  # what the harness maps onto Cycles
+                started = time.perf_counter()
+                result = occlux.render(scene, volume=volume, device=device, progress=progress)
+                seconds = time.perf_counter() - started
+            except BaseException:
+                shutil.rmtree(folder)
+                raise
+            image = np.asarray(result.beauty)
+            return Figure(
+                folder, source.stem, method, scene, described.tree, vdb, volume, image,
+                seconds, estimator, bounces, g,
+            )  # fmt: skip
+
+        return work
+
+    def finish_figure(self, context: bpy.types.Context, figure: Figure) -> str:
+        # Cycles renders through bpy, which only the main thread may call: this part blocks.
         import occlux.cycles as oc
 
         settings = context.scene.occlux
-        source = scenes.VolumeInput.from_settings(settings)
+        spp, seeds = settings.check_spp, settings.check_seeds
+        try:
+            truth = oc.build_scene(
+                figure.scene, figure.vdb, figure.estimator, figure.bounces, figure.g,
+                volume=figure.volume,
+            )  # fmt: skip
+            cycles = oc.render_scene(truth, spp, seeds)
+        finally:
+            oc._remove_previous(bpy)  # the harness's scene, objects and world
+            shutil.rmtree(figure.folder)
+        background = float(np.mean(figure.tree["background"]))
+        figures = occlux.image_error(figure.image, cycles.mean, background, cycles.stderr)
+        out = report_dir(settings)
+        out.mkdir(parents=True, exist_ok=True)
+        stem = f"{figure.stem}-{figure.method}-figure"
+        error_map = out / f"{stem}-errormap.png"
+        key = occlux.write_error_map(error_map, figure.image, cycles.mean, background)
+        layers = {"occlux": figure.image, "cycles": cycles.mean, "cycles_stderr": cycles.stderr}
+        occlux.write_exr_layers(out / f"{stem}.exr", layers, float32=True)
+        report = {
+            "source": str(figure.tree["volume"]["path"]),
+            "method": figure.tree["render"],
+            "truth": {"estimator": figure.estimator, "bounces": figure.bounces, "g": figure.g},
+            "size": list(figure.image.shape[1::-1]),
+            "cycles_spp": spp,
+            "cycles_seeds": seeds,
+            **figures,
+            "occlux_seconds": figure.seconds,
+            "cycles_seconds": cycles.seconds,
+            "error_map_range": key,
+            "left_out": self._left_out,
+        }
+        report_path = out / f"{stem}-report.json"
+        occlux.write_text(report_path, json.dumps(report, indent=2) + "\n")
+        image = bpy.data.images.load(str(error_map), check_existing=True)
+        image.reload()  # a previous check's map of the same name
+        settings.check_rel_rmse = figures["rel_rmse"]
+        settings.check_bias = figures["bias"]
+        settings.check_occlux_seconds = figure.seconds
+        settings.check_cycles_seconds = cycles.seconds
+        settings.check_report = str(report_path)
+        return (
+            f"{figure.method} vs Cycles ({figure.estimator}, {spp} spp): relative RMSE "
+            f"{figures['rel_rmse']:.3f}, bias {figures['bias']:+.1%} over {figures['pixels']} "
+            f"pixels (Cycles' noise {figures['noise']:.3f}); Occlux {figure.seconds:.2f} s, "
+            f"Cycles {cycles.seconds:.1f} s; error map '{image.name}' (+-{key:.0%})"
+        )
+
+    def prepare_reference(self, context: bpy.types.Context) -> Callable[[JobProgress], Reference]:
+        import occlux.cycles as oc
+
+        settings = context.scene.occlux
+        source = scenes.selected_source(context)
         width, height = image_size(context.scene.render, settings.check_size)
-        scene = scenes.build(scenes.scene_tree(context, source, width, height))
+        described = scenes.scene_tree(context, source, width, height)
+        scene = scenes.build(described.tree)
+        self._left_out = described.left_out
         estimator, spp = settings.check_estimator, settings.check_spp
 
         def work(progress: JobProgress) -> Reference:
@@ -77,7 +228,7 @@ class OCCLUX_OT_check_cycles(OccluxJob, bpy.types.Operator):
 
         return work
 
-    def finish(self, context: bpy.types.Context, ref: Reference) -> str:
+    def finish_reference(self, context: bpy.types.Context, ref: Reference) -> str:
         # Cycles renders through bpy, which only the main thread may call: this part blocks.
         import occlux.cycles as oc
 

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import tempfile
 import threading
+import warnings
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -31,6 +32,31 @@ def output_dir(settings) -> Path:
 def report_dir(settings) -> Path:
     """Beside the .blend file; the output folder for an unsaved file."""
     return Path(bpy.path.abspath("//")) if bpy.data.filepath else output_dir(settings)
+
+
+# The core's messages name the CLI's flags; in Blender the panel's Device menu is the setting.
+PANEL_WORDS = {
+    "--device cpu": "Device: CPU in the Occlux panel",
+    "--device gpu": "Device: GPU in the Occlux panel",
+}
+
+
+def panel_words(message: str) -> str:
+    """A core message with the CLI's flags named as the panel's settings."""
+    for flag, setting in PANEL_WORDS.items():
+        message = message.replace(flag, setting)
+    return message
+
+
+def run_recording(work: Callable[[JobProgress], Any], progress: JobProgress) -> tuple[Any, list]:
+    """Runs the work and returns its result with the core's notices (its RuntimeWarnings, e.g.
+    the CPU used for want of a GPU adapter), in the panel's words. One job runs at a time, so
+    recording the warnings process-wide catches only this job's."""
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", RuntimeWarning)
+        result = work(progress)
+    notices = [panel_words(str(w.message)) for w in caught if w.category is RuntimeWarning]
+    return result, notices
 
 
 class JobProgress:
@@ -77,6 +103,7 @@ class BackgroundRun:
     def __init__(self, work: Callable[[JobProgress], Any], progress: JobProgress) -> None:
         self.progress = progress
         self.result: Any = None
+        self.notices: list[str] = []
         self.error: BaseException | None = None
         self.thread = threading.Thread(target=self._run, args=(work,), daemon=True)
         ACTIVE.add(self)
@@ -84,7 +111,7 @@ class BackgroundRun:
 
     def _run(self, work: Callable[[JobProgress], Any]) -> None:
         try:
-            self.result = work(self.progress)
+            self.result, self.notices = run_recording(work, self.progress)
         except BaseException as e:  # handed to the main thread, which reports it
             self.error = e
 
@@ -134,10 +161,10 @@ class OccluxJob:
         progress = JobProgress(self.cancel_after)
         set_status(context, f"{self.bl_label}: running")
         try:
-            result = self.prepare(context)(progress)
+            result, notices = run_recording(self.prepare(context), progress)
         except self.errors() as e:
             return self.failed(context, e, progress)
-        return self.succeeded(context, result)
+        return self.succeeded(context, result, notices)
 
     @classmethod
     def poll(cls, context: bpy.types.Context) -> bool:
@@ -174,16 +201,19 @@ class OccluxJob:
         wm.event_timer_remove(self._timer)
         wm.progress_end()
         if run.error is None:
-            return self.succeeded(context, run.result)
+            return self.succeeded(context, run.result, run.notices)
         if isinstance(run.error, self.errors()):
             return self.failed(context, run.error, run.progress)
         raise run.error
 
-    def succeeded(self, context: bpy.types.Context, result: Any) -> set[str]:
+    def succeeded(self, context: bpy.types.Context, result: Any, notices: list[str]) -> set[str]:
         try:
             message = self.finish(context, result)
         except self.errors() as e:
             return self.failed(context, e, None)
+        for notice in notices:
+            self.report({"WARNING"}, notice)
+            message += f"; {notice}"
         set_status(context, message, 1.0)
         self.report({"INFO"}, message)
         return {"FINISHED"}
@@ -196,6 +226,7 @@ class OccluxJob:
             set_status(context, message)
             self.report({"WARNING"}, message)
         else:
-            set_status(context, f"{self.bl_label} failed: {error}")
-            self.report({"ERROR"}, str(error))
+            message = panel_words(str(error))
+            set_status(context, f"{self.bl_label} failed: {message}")
+            self.report({"ERROR"}, message)
         return {"CANCELLED"}

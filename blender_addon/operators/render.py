@@ -1,5 +1,6 @@
 """Method renders: the volume from the active camera by one of the core's rendering methods, into
-an EXR for the compositor (layers beauty, depth, the method's shaded image and its factor).
+an EXR for the compositor (layers beauty, depth and the method's factor, premultiplied by
+coverage: `occlusion` for DOS, `shadow` for IPSVI).
 Directional occlusion shading is lit by the world; IPSVI by the scene's sun and point lamps."""
 
 from __future__ import annotations
@@ -56,13 +57,14 @@ class MethodRender(OccluxJob):
 
     def prepare(self, context: bpy.types.Context) -> Callable[[JobProgress], tuple[Path, str]]:
         settings = context.scene.occlux
-        source = scenes.VolumeInput.from_settings(settings)
+        source = scenes.selected_source(context)
         width, height = render_size(context.scene.render)
         entry = scenes.method(self.METHOD)
-        tree = scenes.scene_tree(
+        described = scenes.scene_tree(
             context, source, width, height, entry["lights"], render=self.section(settings)
         )
-        scene = scenes.build(tree)
+        scene = scenes.build(described.tree)
+        self._left_out = described.left_out
         device = settings.device
         exr = output_dir(settings) / f"{source.stem}-{self.METHOD}.exr"
         layers = ", ".join(entry["layers"])
@@ -79,12 +81,17 @@ class MethodRender(OccluxJob):
     def finish(self, context: bpy.types.Context, result: tuple[Path, str]) -> str:
         exr, layers = result
         context.scene.occlux.last_exr = str(exr)
-        return f"{self.bl_label.removeprefix('Render ')} render written to {exr} (layers {layers})"
+        method = self.bl_label.removeprefix("Render ")
+        message = f"{method} render written to {exr} (layers {layers})"
+        if self._left_out:
+            self.report({"WARNING"}, self._left_out)
+            message += f"; {self._left_out}"
+        return message
 
 
 class OCCLUX_OT_render_dos(MethodRender, bpy.types.Operator):
     """Render the volume from the active camera with directional occlusion shading (the
-    world's ambient light) and write the EXR (layers beauty, depth, dos, occlusion) for
+    world's ambient light) and write the EXR (layers beauty, depth, occlusion) for
     compositing"""
 
     bl_idname = "occlux.render_dos"
@@ -97,7 +104,7 @@ class OCCLUX_OT_render_dos(MethodRender, bpy.types.Operator):
 class OCCLUX_OT_render_ipsvi(MethodRender, bpy.types.Operator):
     """Render the volume from the active camera with image plane sweep volume illumination
     (single scattering with shadows from the scene's sun and point lamps) and write the EXR
-    (layers beauty, depth, ipsvi, shadow) for compositing"""
+    (layers beauty, depth, shadow) for compositing"""
 
     bl_idname = "occlux.render_ipsvi"
     bl_label = "Render IPSVI"

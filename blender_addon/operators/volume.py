@@ -1,5 +1,7 @@
 """Volume import and ambient occlusion: load and classify the volume file into the scene as a
-Volume object, and compute its VAO volume into an `ao` grid that shades its material."""
+Volume object, and compute its ambient occlusion into an `ao` grid that shades its material.
+One dataset is one object: Compute AO gives the object it acts on (the active Occlux volume,
+else the one of the panel's file) a VDB holding all its grids, never a second object."""
 
 from __future__ import annotations
 
@@ -11,7 +13,7 @@ from typing import Any
 import bpy
 import occlux
 
-from .. import nodes, scenes
+from .. import material, scenes
 from .jobs import JobProgress, OccluxJob, output_dir
 
 
@@ -55,7 +57,7 @@ class OCCLUX_OT_import_volume(OccluxJob, bpy.types.Operator):
         return work
 
     def finish(self, context: bpy.types.Context, result: Loaded) -> str:
-        obj = add_volume_object(context, result, ao=None)
+        obj = show_volume(context, result, None, None)
         return f"loaded {result.source.path.name} as '{obj.name}' ({result.vdb})"
 
 
@@ -76,6 +78,19 @@ def ao_options(settings: bpy.types.PropertyGroup) -> dict:
     return {"radius": settings.ao_radius}
 
 
+def ao_section(settings: bpy.types.PropertyGroup) -> dict:
+    """The `render` section of an AO-shaded render (`method = "ao"`) with the panel's AO
+    method, lit by the ambient light alone (no direct light)."""
+    section = {"method": "ao", "ao_method": settings.ao_method, "direct": False}
+    if settings.ao_method == "sweep":
+        section.update(
+            ao_gamma=settings.ao_gamma, ao_alpha=settings.ao_alpha, ao_light=settings.ao_light
+        )
+    elif settings.ao_method != "sweep-physical":
+        section["ao_radius"] = settings.ao_radius
+    return section
+
+
 def ao_label(settings: bpy.types.PropertyGroup) -> str:
     """The AO method as the status line says it."""
     if settings.ao_method.startswith("sweep"):
@@ -93,7 +108,10 @@ class OCCLUX_OT_compute_ao(OccluxJob, bpy.types.Operator):
 
     def prepare(self, context: bpy.types.Context) -> Callable[[JobProgress], Loaded]:
         settings = context.scene.occlux
-        source = scenes.VolumeInput.from_settings(settings)
+        source = scenes.selected_source(context)
+        target = scenes.volume_object(context)
+        # By name: the object may go while the work runs (then the file's object is found).
+        self._target = None if target is None else target.name
         scene = scenes.build(scenes.volume_tree(source, settings))
         method, options, device = settings.ao_method, ao_options(settings), settings.device
         vdb = output_dir(settings) / f"{source.stem}-ao.vdb"
@@ -115,15 +133,21 @@ class OCCLUX_OT_compute_ao(OccluxJob, bpy.types.Operator):
 
     def finish(self, context: bpy.types.Context, result: Loaded) -> str:
         settings = context.scene.occlux
-        obj = add_volume_object(context, result, ao=settings.ao_shading)
+        target = bpy.data.objects.get(self._target) if self._target else None
+        obj = show_volume(context, result, settings.ao_shading, target)
         source = result.source.path.name
-        return f"AO ({ao_label(settings)}) of {source} as '{obj.name}' ({result.vdb})"
+        return f"AO ({ao_label(settings)}) of {source} on '{obj.name}' ({result.vdb})"
 
 
-def add_volume_object(context: bpy.types.Context, loaded: Loaded, ao: str | None):
-    """A Volume object for the VDB with the Occlux material; the previous one of that name is
-    replaced. If Blender cannot read the file, nothing is added (and the file is removed)."""
-    name = loaded.vdb.stem
+def show_volume(
+    context: bpy.types.Context, loaded: Loaded, ao: str | None, target: bpy.types.Object | None
+):
+    """The dataset's Volume object shows the VDB with the Occlux material (AO-shaded by `ao`):
+    `target` (the object the operator acted on), else the Occlux volume named after the file,
+    else a new one. An existing object keeps its transform, visibility and name; its previous
+    data and material go if nothing else uses them. The object is made active and selected.
+    If Blender cannot read the file, nothing changes (and the file is removed)."""
+    name = loaded.source.stem
     data = bpy.data.volumes.new(name)
     data.filepath = str(loaded.vdb)
     if not data.grids.load():
@@ -131,22 +155,45 @@ def add_volume_object(context: bpy.types.Context, loaded: Loaded, ao: str | None
         bpy.data.volumes.remove(data)
         loaded.vdb.unlink(missing_ok=True)
         raise OSError(f"Blender cannot read {loaded.vdb}: {error}")
-    old = bpy.data.objects.get(name)
-    if old is not None:
-        bpy.data.objects.remove(old)
-    obj = bpy.data.objects.new(name, data)
-    context.scene.collection.objects.link(obj)
-    material = nodes.volume_material(
+    ambient = scenes.world_radiance(context.scene) if ao == "AMBIENT" else (0.0, 0.0, 0.0)
+    shading = material.volume_material(
         f"Occlux {name}",
-        loaded.classification.points,
-        loaded.volume.value_range,
-        loaded.classification.units,
+        loaded.classification.raw_points(loaded.volume),
         ao,
         context.scene.occlux.ao_factor,
+        ambient,
     )
-    data.materials.append(material)
+    data.materials.append(shading)
+    obj = target
+    if obj is None:
+        same = bpy.data.objects.get(name)
+        if same is not None and same.type == "VOLUME" and "occlux_source" in same:
+            obj = same
+    if obj is None:
+        obj = bpy.data.objects.new(name, data)
+        context.scene.collection.objects.link(obj)
+    else:
+        previous, obj.data = obj.data, data
+        release(previous)
+        shading.name = f"Occlux {name}"  # the released material's name, free again
     obj["occlux_source"] = loaded.source.setting
+    if ao == "AMBIENT":  # the material carries the world's light: the world lights the camera
+        material.camera_only_world(context.scene)
+    for other in context.view_layer.objects:
+        other.select_set(other == obj)
+    context.view_layer.objects.active = obj
     return obj
+
+
+def release(data: bpy.types.Volume) -> None:
+    """Removes a volume's data and its materials once no object uses them."""
+    if data.users:
+        return
+    shadings = [m for m in data.materials if m is not None]
+    bpy.data.volumes.remove(data)
+    for shading in shadings:
+        if not shading.users:
+            bpy.data.materials.remove(shading)
 
 
 CLASSES = (OCCLUX_OT_import_volume, OCCLUX_OT_compute_ao)

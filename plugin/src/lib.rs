@@ -9,6 +9,7 @@ mod classification;
 mod errors;
 mod export;
 mod json;
+mod metrics;
 mod reference;
 mod render;
 mod scene;
@@ -51,5 +52,6 @@ fn _occlux(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(ao::ao_volume, m)?)?;
     m.add_function(wrap_pyfunction!(methods, m)?)?;
     writers::register(m)?;
+    metrics::register(m)?;
     Ok(())
 }

@@ -52,18 +52,24 @@ impl PyRenderResult {
         unsafe { readonly_view(this.clone().into_any(), &image.depth, shape) }
     }
 
-    /// Directional occlusion shading's occlusion factor (1 = unoccluded) at the depth, float32,
-    /// shape (height, width); None for methods that compute none.
+    /// Directional occlusion shading's occlusion layer, float32, shape (height, width, 2):
+    /// [..., 0] is P, each sample's lit fraction of the ambient light weighted by its
+    /// contribution to the pixel (transmittance in front times opacity) and summed along the
+    /// ray, and [..., 1] is A, the coverage (the sum of those weights, = beauty's alpha). So
+    /// 0 <= P <= A, P = A where nothing occludes, P = A = 0 where the ray meets nothing; P / A
+    /// is the mean occlusion of what the pixel shows. Shade another render of the same view
+    /// by `render * (1 - strength * (A - P))`. None for methods that compute none.
     #[getter]
-    fn occlusion<'py>(this: &Bound<'py, Self>) -> PyResult<Option<Bound<'py, PyArray2<f32>>>> {
+    fn occlusion<'py>(this: &Bound<'py, Self>) -> PyResult<Option<Bound<'py, PyArray3<f32>>>> {
         factor(this, "occlusion")
     }
 
-    /// IPSVI's shadow factor: the lights' transmittance at the depth, weighted by their
-    /// irradiance there (1 = unshadowed), float32, shape (height, width); None for methods that
-    /// compute none.
+    /// IPSVI's (and half-angle slicing's) shadow layer, float32, shape (height, width, 2):
+    /// [..., 0] is P, the lights' transmittance at each sample (weighted by their irradiance)
+    /// weighted by the sample's contribution and summed along the ray, [..., 1] the coverage
+    /// A, as for `occlusion`. None for methods that compute none.
     #[getter]
-    fn shadow<'py>(this: &Bound<'py, Self>) -> PyResult<Option<Bound<'py, PyArray2<f32>>>> {
+    fn shadow<'py>(this: &Bound<'py, Self>) -> PyResult<Option<Bound<'py, PyArray3<f32>>>> {
         factor(this, "shadow")
     }
 
@@ -91,17 +97,18 @@ impl PyRenderResult {
     }
 }
 
-/// The shading factor `name` of a result as a read-only (height, width) array, if it has one.
+/// The shading factor `name` of a result as a read-only (height, width, 2) array of (P, A),
+/// if it has one.
 fn factor<'py>(
     this: &Bound<'py, PyRenderResult>,
     name: &str,
-) -> PyResult<Option<Bound<'py, PyArray2<f32>>>> {
+) -> PyResult<Option<Bound<'py, PyArray3<f32>>>> {
     let image = &this.get().image;
-    let shape = (image.height as usize, image.width as usize);
+    let shape = (image.height as usize, image.width as usize, 2);
     image
         .factor(name)
         // SAFETY: the values belong to this frozen RenderResult, which never changes them.
-        .map(|values| unsafe { readonly_view(this.clone().into_any(), values, shape) })
+        .map(|f| unsafe { readonly_view(this.clone().into_any(), f.values.as_flattened(), shape) })
         .transpose()
 }
 
@@ -235,8 +242,9 @@ pub fn render(
 }
 
 /// Writes a render as a multilayer OpenEXR, atomically: layers `beauty` (R, G, B, A; float16
-/// unless `float32`) and `depth` (Z, always float32), with the scene's camera, method and
-/// lighting as text attributes in the header.
+/// unless `float32`), `depth` (Z, always float32) and, for DOS, IPSVI and half-angle slicing,
+/// `occlusion` or `shadow` (V: the factor premultiplied by coverage, A: the coverage), with the
+/// scene's camera, method and lighting as text attributes in the header.
 #[pyfunction]
 #[pyo3(signature = (path, result, scene, float32 = false))]
 pub fn write_exr(

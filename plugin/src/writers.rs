@@ -39,7 +39,7 @@ fn channel_names(count: usize) -> Option<&'static [&'static str]> {
 }
 
 /// A value as a C-contiguous float32 (or uint8) numpy array, through numpy itself.
-fn as_array<'py>(value: &Bound<'py, PyAny>, dtype: &str) -> PyResult<Bound<'py, PyAny>> {
+pub(crate) fn as_array<'py>(value: &Bound<'py, PyAny>, dtype: &str) -> PyResult<Bound<'py, PyAny>> {
     value
         .py()
         .import("numpy")?

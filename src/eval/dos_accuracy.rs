@@ -69,8 +69,8 @@ pub struct AccuracyRow {
     pub ambient_rel_rmse: f64,
     /// The cone reference's own noise: relative RMS of its standard error.
     pub cone_rel_noise: f64,
-    /// Mean of the `occlusion` layer over the pixels whose opacity reaches 0.5: how much light
-    /// the cone lets through at the visible surface (the paper's Figure 5: larger theta and a
+    /// Coverage-weighted mean of the `occlusion` layer over the image, sum P / sum A: how much
+    /// of the cone's light what is seen receives (the paper's Figure 5: larger theta and a
     /// finer grid let more distant occluders count, so it falls).
     pub mean_occlusion: f64,
     pub dos_ms: f64,
@@ -126,18 +126,20 @@ pub fn relative_error(image: &RenderImage, reference: &ReferenceImage) -> Result
     })
 }
 
-/// Mean occlusion factor over the pixels whose opacity reaches 0.5 (NaN if none does).
+/// Mean occlusion of what the image shows: the `occlusion` layer's sum of P over its sum of
+/// coverage A (NaN if nothing covers any pixel).
 pub fn mean_occlusion(image: &RenderImage) -> f64 {
     let Some(occlusion) = image.factor("occlusion") else {
         return f64::NAN;
     };
-    let (sum, count) = image
-        .rgba
-        .iter()
-        .zip(occlusion)
-        .filter(|(p, _)| p[3] >= 0.5)
-        .fold((0.0f64, 0usize), |(s, n), (_, o)| (s + *o as f64, n + 1));
-    sum / count as f64
+    let (p, a) = occlusion.values.iter().fold((0.0f64, 0.0f64), |(p, a), v| {
+        (p + v[0] as f64, a + v[1] as f64)
+    });
+    if a > 0.0 {
+        p / a
+    } else {
+        f64::NAN
+    }
 }
 
 /// The scene's lighting reduced to its ambient lights (radiance 1 when it has none).

@@ -140,7 +140,7 @@ impl Case {
                     lighting: &scene.lighting,
                     params,
                 };
-                ipsvi::render(compute, &input, &NoProgress)?.0
+                ipsvi::render(compute, &input, &NoProgress)?
             }
             Case::HalfAngle(params) => {
                 let input = HalfAngleInput {
@@ -150,7 +150,7 @@ impl Case {
                     lighting: &scene.lighting,
                     params,
                 };
-                half_angle::cpu::render(&input, &NoProgress)?.0
+                half_angle::cpu::render(&input, &NoProgress)?
             }
         })
     }

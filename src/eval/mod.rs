@@ -3,6 +3,7 @@ pub mod bench;
 pub mod chart;
 pub mod cycles;
 pub mod dos_accuracy;
+pub mod error_map;
 pub mod ipsvi_accuracy;
 pub mod sweep_accuracy;
 pub mod sweep_bench;

@@ -64,17 +64,27 @@ impl ExrImage {
     }
 }
 
+/// The channels of a shading factor's layer ([`crate::render::Factor`]): the factor
+/// premultiplied by coverage, P, and the coverage, A (`occlusion.V` and `occlusion.A`,
+/// `shadow.V` and `shadow.A`).
+pub const FACTOR_CHANNELS: [&str; 2] = ["V", "A"];
+
 /// The layers of a render: `beauty` (R, G, B, A) and `depth` (Z); a render with a shading
-/// factor adds its shaded image under the method's name (R, G, B, A: `dos`, `ipsvi`) and the
-/// factor (Y: `occlusion`, `shadow`).
+/// factor adds it as one layer named after it (`occlusion` for DOS, `shadow` for IPSVI and
+/// half-angle slicing) with the channels of [`FACTOR_CHANNELS`]: `V` is
+/// P = sum_i T_i alpha_i f_i, the factor f_i of each sample along the pixel's ray weighted as
+/// its colour is composited (T_i the transmittance in front of it, alpha_i its opacity), and
+/// `A` its coverage 1 - T (the same as `beauty.A`). So `0 <= V <= A`, `V = A` where nothing
+/// occludes or shadows, `V = A = 0` where the ray meets nothing: a premultiplied grey, smooth
+/// wherever the image is. Shade another render of the same view by
+/// `render * (1 - strength * (A - V))`: a multiplier that is 1 where the layer has no coverage.
 pub fn render_layers(img: &RenderImage) -> Vec<ExrLayer> {
-    let rgba = |name: &str| ExrLayer {
-        name: name.into(),
-        channels: ["R", "G", "B", "A"].map(String::from).to_vec(),
-        pixels: img.rgba.iter().flatten().copied().collect(),
-    };
     let mut layers = vec![
-        rgba("beauty"),
+        ExrLayer {
+            name: "beauty".into(),
+            channels: ["R", "G", "B", "A"].map(String::from).to_vec(),
+            pixels: img.rgba.iter().flatten().copied().collect(),
+        },
         ExrLayer {
             name: "depth".into(),
             channels: vec!["Z".into()],
@@ -82,11 +92,10 @@ pub fn render_layers(img: &RenderImage) -> Vec<ExrLayer> {
         },
     ];
     if let Some(factor) = &img.factor {
-        layers.push(rgba(factor.method));
         layers.push(ExrLayer {
             name: factor.name.into(),
-            channels: vec!["Y".into()],
-            pixels: factor.values.clone(),
+            channels: FACTOR_CHANNELS.map(String::from).to_vec(),
+            pixels: factor.values.iter().flatten().copied().collect(),
         });
     }
     layers
@@ -262,6 +271,44 @@ mod tests {
             factor: None,
         };
         render_layers(&img)
+    }
+
+    #[test]
+    fn a_factor_is_one_layer_of_premultiplied_value_and_coverage_and_no_shaded_copy() {
+        let coverage = [0.0, 0.25, 0.5, 0.75, 1.0, 1.0];
+        let img = RenderImage {
+            width: 3,
+            height: 2,
+            rgba: coverage.iter().map(|&a| [0.5, 0.5, 0.5, a]).collect(),
+            depth: vec![crate::render::BACKGROUND_DEPTH; 6],
+            factor: Some(crate::render::Factor::new(
+                "occlusion",
+                &[0.0, 0.25, 0.25, 0.8, 0.1, 1.0],
+                &coverage,
+            )),
+        };
+        let layers = render_layers(&img);
+        let names: Vec<&str> = layers.iter().map(|l| l.name.as_str()).collect();
+        assert_eq!(names, ["beauty", "depth", "occlusion"]);
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("f.exr");
+        write_exr(&path, 3, 2, &layers, &BTreeMap::new(), Precision::Float).unwrap();
+        let back = read_exr(&path).unwrap();
+        let names: Vec<&str> = back.layers.iter().map(|l| l.name.as_str()).collect();
+        assert_eq!(
+            names,
+            ["beauty", "depth", "occlusion"],
+            "no RGBA copy of beauty"
+        );
+        let layer = back.layer("occlusion").unwrap();
+        // Channels are read back sorted by name.
+        assert_eq!(layer.channels, ["A", "V"]);
+        // P is clamped into [0, A] (0.8 > 0.75).
+        assert_eq!(
+            layer.channel("V").unwrap(),
+            [0.0, 0.25, 0.25, 0.75, 0.1, 1.0]
+        );
+        assert_eq!(layer.channel("A").unwrap(), coverage);
     }
 
     #[test]

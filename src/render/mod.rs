@@ -55,19 +55,61 @@ pub struct RenderImage {
     /// Distance along the ray from the eye to where accumulated opacity crosses 0.5, or
     /// [`BACKGROUND_DEPTH`].
     pub depth: Vec<f32>,
-    /// A method's shading factor at the depth, if it computes one.
+    /// A method's shading factor, premultiplied by coverage, if it computes one.
     pub factor: Option<Factor>,
 }
 
-/// A per-pixel shading factor at the depth, 1 where the opacity never reaches 0.5: DOS's
-/// `occlusion` (1 = unoccluded), IPSVI's `shadow` (1 = unshadowed). The EXR holds it as a
-/// layer `name`, and the shaded image again under `method`, for compositing beside other
-/// methods' layers.
+/// A per-pixel shading factor made for compositing: DOS's `occlusion` (the lit fraction of the
+/// ambient light), IPSVI's and half-angle slicing's `shadow` (the lights' transmittance).
+///
+/// Along a pixel's ray, sample i has the contribution weight `w_i = T_i alpha_i` (T_i the
+/// view's transmittance in front of it, alpha_i its opacity: the weights its colour is
+/// composited with) and the method's factor `f_i` in [0, 1]. The layer holds per pixel
+/// `[P, A]`: `P = sum_i w_i f_i`, the factor premultiplied by coverage, and
+/// `A = sum_i w_i = 1 - T_final`, the coverage (the beauty's alpha). So `0 <= P <= A`, `P = A`
+/// where nothing occludes and `P = A = 0` where nothing is; no threshold anywhere, so both
+/// are as continuous as the image (an alpha-premultiplied grey, as EXR stores colour). To
+/// shade another render of the same view by it: `render * (1 - strength * (A - P))`, which is
+/// 1 where the layer has no coverage.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Factor {
-    pub method: &'static str,
     pub name: &'static str,
-    pub values: Vec<f32>,
+    /// Per pixel `[P, A]`, row 0 at the top, x fastest.
+    pub values: Vec<[f32; 2]>,
+}
+
+impl Factor {
+    /// The layer `name` from per-pixel premultiplied factors and coverages: each P is clamped to
+    /// [0, A], so that rounding never puts it outside.
+    pub fn new(name: &'static str, premultiplied: &[f32], coverage: &[f32]) -> Self {
+        Self {
+            name,
+            values: premultiplied
+                .iter()
+                .zip(coverage)
+                .map(|(&p, &a)| [p.clamp(0.0, a.max(0.0)), a])
+                .collect(),
+        }
+    }
+
+    /// P per pixel.
+    pub fn premultiplied(&self) -> Vec<f32> {
+        self.values.iter().map(|v| v[0]).collect()
+    }
+
+    /// A per pixel.
+    pub fn coverage(&self) -> Vec<f32> {
+        self.values.iter().map(|v| v[1]).collect()
+    }
+
+    /// P / A per pixel, the coverage-weighted mean factor of what the pixel shows, and 1 where
+    /// A is 0 (nothing there to shade).
+    pub fn unpremultiplied(&self) -> Vec<f32> {
+        self.values
+            .iter()
+            .map(|&[p, a]| if a > 0.0 { (p / a).min(1.0) } else { 1.0 })
+            .collect()
+    }
 }
 
 impl RenderImage {
@@ -82,11 +124,8 @@ impl RenderImage {
         }
     }
 
-    /// The values of the shading factor called `name`, if the render has it.
-    pub fn factor(&self, name: &str) -> Option<&[f32]> {
-        self.factor
-            .as_ref()
-            .filter(|f| f.name == name)
-            .map(|f| f.values.as_slice())
+    /// The shading factor called `name`, if the render has it.
+    pub fn factor(&self, name: &str) -> Option<&Factor> {
+        self.factor.as_ref().filter(|f| f.name == name)
     }
 }

@@ -2,6 +2,7 @@
 //! subset, hence the allowance.
 #![allow(dead_code)]
 
+pub mod layers;
 pub mod quadrature;
 pub mod twins;
 

@@ -447,13 +447,17 @@ def test_dos_renders_expose_the_occlusion_layer_and_other_methods_none() -> None
     ambient_only = scene_text(size=(24, 20)).split('[[lights]]\ntype = "directional"')[0]
     dos = ambient_only + '[render]\nmethod = "dos"\ntheta_deg = 60\ngrid = 3\n'
     result = occlux.render(occlux.Scene.from_toml(dos), device="cpu")
-    occlusion = result.occlusion
-    assert occlusion is not None and occlusion.shape == (20, 24)
-    assert occlusion.min() >= 0.0 and occlusion.max() <= 1.0
-    # Where the volume is opaque the cone sees occluders; elsewhere nothing occludes.
-    opaque = result.beauty[..., 3] >= 0.5
-    assert opaque.any() and occlusion[opaque].mean() < 0.95
-    np.testing.assert_array_equal(occlusion[~opaque], 1.0)
+    layer = result.occlusion
+    assert layer is not None and layer.shape == (20, 24, 2) and not layer.flags.writeable
+    # (P, A): the occlusion premultiplied by coverage, and the coverage, which is the alpha.
+    occlusion, coverage = layer[..., 0], layer[..., 1]
+    np.testing.assert_array_equal(coverage, result.beauty[..., 3])
+    assert occlusion.min() >= 0.0 and (occlusion <= coverage).all()
+    # Where the volume is opaque the cone sees occluders; where the ray meets nothing, P = A = 0.
+    opaque = coverage >= 0.5
+    assert opaque.any() and (occlusion[opaque] / coverage[opaque]).mean() < 0.95
+    empty = coverage == 0.0
+    assert empty.any() and (occlusion[empty] == 0.0).all()
     gradient = occlux.render(occlux.Scene.from_toml(scene_text(size=(8, 8))), device="cpu")
     assert gradient.occlusion is None
 
@@ -466,11 +470,16 @@ def test_ipsvi_renders_shadows_that_agree_with_the_single_scattering_reference()
     ipsvi = sun_only.replace('method = "gradient"', 'method = "ipsvi"')
     scene = occlux.Scene.from_toml(ipsvi)
     result = occlux.render(scene, device="cpu")
-    shadow = result.shadow
-    assert shadow is not None and shadow.shape == (32, 32) and result.occlusion is None
-    opaque = result.beauty[..., 3] >= 0.5
-    assert opaque.any() and (shadow[opaque] < 0.5).any(), "the phantom shadows itself"
-    np.testing.assert_array_equal(shadow[~opaque], 1.0)
+    layer = result.shadow
+    assert layer is not None and layer.shape == (32, 32, 2) and result.occlusion is None
+    shadow, coverage = layer[..., 0], layer[..., 1]
+    np.testing.assert_array_equal(coverage, result.beauty[..., 3])
+    assert shadow.min() >= 0.0 and (shadow <= coverage).all()
+    opaque = coverage >= 0.5
+    assert opaque.any() and (shadow[opaque] / coverage[opaque] < 0.5).any(), (
+        "the phantom shadows itself"
+    )
+    np.testing.assert_array_equal(shadow[coverage == 0.0], 0.0)
     # Against the Monte Carlo single-scattering reference of the same scene: the method's error
     # (a few percent, tests/ipsvi.rs) is far below what dropping the shadows does.
     reference = occlux.reference(scene, estimator="single", spp=64, seed=3)

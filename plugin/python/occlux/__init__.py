@@ -16,6 +16,8 @@ grids, OpenEXR layers and USD stages that Blender and other tools read::
 
 ``write_exr_layers``, ``write_png``, ``write_text`` and ``write_reference`` write data made in
 Python (numpy layers, an 8-bit picture, text, a reference) with the core's atomic writers.
+``image_error`` and ``write_error_map`` measure an image against a reference of the same scene
+(DESIGN.md's relative RMSE and bias over the volume's pixels, and a map with a colour key).
 ``occlux.cycles`` checks the references against Blender's Cycles.
 
 ``occlux.usd`` authors the same USD stages through usd-core's ``pxr`` API, into a file or into
@@ -36,10 +38,12 @@ from occlux._occlux import (
     __version__,
     ao_volume,
     export,
+    image_error,
     methods,
     reference,
     render,
     stage_description,
+    write_error_map,
     write_exr,
     write_exr_layers,
     write_png,
@@ -60,10 +64,12 @@ __all__ = [
     "__version__",
     "ao_volume",
     "export",
+    "image_error",
     "methods",
     "reference",
     "render",
     "stage_description",
+    "write_error_map",
     "write_exr",
     "write_exr_layers",
     "write_png",

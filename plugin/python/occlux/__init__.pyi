@@ -176,14 +176,24 @@ class RenderResult:
 
     @property
     def occlusion(self) -> npt.NDArray[np.float32] | None:
-        """Directional occlusion shading's occlusion factor (1 = unoccluded) at the depth,
-        shape ``(height, width)``; ``None`` for methods that compute none."""
+        """Directional occlusion shading's occlusion layer, made for compositing, shape
+        ``(height, width, 2)``: ``[..., 0]`` is P, each sample's lit fraction of the ambient
+        light weighted by its contribution to the pixel (the transmittance in front of it times
+        its opacity, as its colour is composited) and summed along the ray; ``[..., 1]`` is A,
+        the coverage (the sum of those weights, equal to ``beauty[..., 3]``). So
+        ``0 <= P <= A``, ``P == A`` where nothing occludes and ``P == A == 0`` where the ray
+        meets nothing; ``P / A`` is the mean occlusion of what the pixel shows. Shade another
+        render of the same view by ``render * (1 - strength * (A - P))`` (1 where A is 0). The
+        EXR holds the same as channels ``occlusion.V`` (P) and ``occlusion.A`` (A). ``None`` for
+        methods that compute none."""
 
     @property
     def shadow(self) -> npt.NDArray[np.float32] | None:
-        """IPSVI's shadow factor: the lights' transmittance at the depth, weighted by their
-        irradiance there (1 = unshadowed), shape ``(height, width)``; ``None`` for methods that
-        compute none."""
+        """IPSVI's (and half-angle slicing's) shadow layer, shape ``(height, width, 2)``:
+        ``[..., 0]`` is P, the lights' transmittance at each sample (the lights weighted by
+        their irradiance) weighted by the sample's contribution and summed along the ray;
+        ``[..., 1]`` is the coverage A, as for ``occlusion`` (EXR channels ``shadow.V`` and
+        ``shadow.A``). ``None`` for methods that compute none."""
 
     @property
     def width(self) -> int: ...
@@ -207,8 +217,9 @@ def render(
 
 def write_exr(path: _Path, result: RenderResult, scene: Scene, float32: bool = False) -> None:
     """Writes a multilayer OpenEXR atomically: layers ``beauty`` (R, G, B, A; float16 unless
-    ``float32``) and ``depth`` (Z, float32), with the scene's camera, method and lighting as text
-    attributes ``occlux/*`` in the header."""
+    ``float32``), ``depth`` (Z, float32) and the result's ``occlusion`` or ``shadow`` if it has
+    one (``V``: the factor premultiplied by coverage, ``A``: the coverage), with the scene's
+    camera, method and lighting as text attributes ``occlux/*`` in the header."""
 
 def write_exr_layers(
     path: _Path,
@@ -226,6 +237,26 @@ def write_exr_layers(
 def write_png(path: _Path, rgb: npt.NDArray[np.uint8]) -> None:
     """Writes an 8-bit picture, shape (height, width, 3) and dtype uint8, row 0 at the top, as
     an sRGB PNG, atomically; the codes are stored as they are."""
+
+def image_error(
+    image: npt.ArrayLike,
+    reference: npt.ArrayLike,
+    background: float,
+    stderr: npt.ArrayLike | None = None,
+) -> dict[str, float]:
+    """DESIGN.md's error of ``image`` against ``reference`` (shape (height, width, 3 or 4),
+    linear RGB; alpha ignored) over the volume's pixels, those where the reference's grey
+    differs from ``background`` by more than 0.5 % of it: ``pixels``, ``rel_rmse`` (RMSE of
+    the RGB difference / the reference's mean there), ``bias`` (mean difference / that mean)
+    and ``noise`` (the RMS of ``stderr`` / that mean; 0 without it)."""
+
+def write_error_map(
+    path: _Path, image: npt.ArrayLike, reference: npt.ArrayLike, background: float
+) -> float:
+    """Writes a PNG of where ``image`` differs from ``reference`` (as for ``image_error``):
+    blue where the image is darker, white where equal, red where brighter, over the volume's
+    pixels (others mid grey), at least 256 pixels wide, with a colour key below; atomically.
+    Returns the key's range (relative to the reference's mean)."""
 
 def write_text(path: _Path, text: str) -> None:
     """Writes ``text`` (UTF-8) to ``path``, atomically."""

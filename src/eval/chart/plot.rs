@@ -59,7 +59,7 @@ const COLUMNS: usize = 2;
 /// never hides a point whatever corner the data fills.
 const LEGEND_WIDTH: u32 = 200;
 const LEGEND_ROW: i32 = 22;
-const FAMILY: &str = "sans-serif";
+pub(crate) const FAMILY: &str = "sans-serif";
 const TITLE_SIZE: f64 = 22.0;
 const AXIS_DESC_SIZE: f64 = 16.0;
 const TICK_SIZE: f64 = 13.0;
@@ -176,7 +176,7 @@ fn render_rgb(
 }
 
 /// Encodes RGB pixels as a PNG at `path`, atomically.
-fn write_png(path: &Path, rgb: &[u8], (width, height): (u32, u32)) -> Result<()> {
+pub(crate) fn write_png(path: &Path, rgb: &[u8], (width, height): (u32, u32)) -> Result<()> {
     write_atomic(path, |w| {
         let mut encoder = png::Encoder::new(w, width, height);
         encoder.set_color(png::ColorType::Rgb);
@@ -191,7 +191,7 @@ fn write_png(path: &Path, rgb: &[u8], (width, height): (u32, u32)) -> Result<()>
 
 /// Whether the PNG has a font: registers the first of [`FONT_PATHS`] that reads and parses as
 /// its sans-serif, once per process (the answer is kept, found or not).
-fn png_font_registered() -> bool {
+pub(crate) fn png_font_registered() -> bool {
     static REGISTERED: OnceLock<bool> = OnceLock::new();
     *REGISTERED.get_or_init(|| FONT_PATHS.iter().any(|path| register_font_file(path)))
 }

@@ -28,7 +28,8 @@ struct Eye {
     radiance: Vec3,
     transmittance: f32,
     depth: f32,
-    /// The occlusion factor where the transmittance fell through 0.5.
+    /// The occlusion layer's P: the light each sample receives (its lit fraction of the
+    /// ambient light) weighted by its contribution `transmittance * alpha`, summed.
     occlusion: f32,
 }
 
@@ -69,7 +70,7 @@ fn render_skipping(
             radiance: Vec3::ZERO,
             transmittance: 1.0,
             depth: BACKGROUND_DEPTH,
-            occlusion: 1.0,
+            occlusion: 0.0,
         };
         width * height
     ];
@@ -235,10 +236,11 @@ fn slab(
     };
     let light = alpha * optical.albedo * setup.ambient * lit + emitted(&optical, alpha, dt);
     eye.radiance += eye.transmittance * light;
+    // The same weight as the light's, in the shader's order.
+    eye.occlusion += eye.transmittance * alpha * lit;
     let next = eye.transmittance * (1.0 - alpha);
     if eye.transmittance > 0.5 && next <= 0.5 {
         eye.depth = ta + (2.0 * eye.transmittance).ln() / optical.sigma_t;
-        eye.occlusion = v;
     }
     eye.transmittance = next;
     optical.sigma_t * dt * ray.depth_rate / d

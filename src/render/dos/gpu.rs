@@ -110,7 +110,7 @@ pub fn render_uploaded(
     ];
     let eye = buffer::storage_buffer(ctx, "eye", &vec![[0.0f32, 0.0, 0.0, 1.0]; pixels])?;
     let eye_depth =
-        buffer::storage_buffer(ctx, "eye depth", &vec![[BACKGROUND_DEPTH, 1.0f32]; pixels])?;
+        buffer::storage_buffer(ctx, "eye depth", &vec![[BACKGROUND_DEPTH, 0.0f32]; pixels])?;
     // Every slab's uniform at its own aligned offset.
     let stride =
         (ctx.limits.min_uniform_buffer_offset_alignment as usize).max(std::mem::size_of::<Slab>());

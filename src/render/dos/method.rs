@@ -83,7 +83,7 @@ impl RenderMethod for DosParams {
         module: "render::dos",
         shaders: &["dos.wgsl"],
         lights: &[LightKind::Ambient],
-        layers: &["beauty", "depth", "dos", "occlusion"],
+        layers: &["beauty", "depth", "occlusion"],
         grids: &[],
         chart: &["theta_deg = 30", "theta_deg = 50", "theta_deg = 80"],
         params: &[

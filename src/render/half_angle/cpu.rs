@@ -12,7 +12,7 @@ use crate::render::ipsvi::cache::{CacheMap, Resolution};
 use crate::render::raycast::cpu::emitted;
 use crate::render::reference::medium::Medium;
 use crate::render::reference::phase::henyey_greenstein;
-use crate::render::{RenderImage, BACKGROUND_DEPTH};
+use crate::render::{Factor, RenderImage, BACKGROUND_DEPTH};
 use glam::Vec3;
 use rayon::prelude::*;
 
@@ -31,10 +31,12 @@ struct Eye {
     /// The whole ray's transmittance (back to front: from the extinction-only pre-pass).
     total: f32,
     depth: f32,
-    /// Irradiance (grey) and irradiance times the sun's transmittance at the depth, summed
-    /// over suns.
-    lit_at_depth: f32,
-    irradiance_at_depth: f32,
+    /// The shadow layer: the current sun's transmittance at each sample weighted by the
+    /// sample's contribution (composited as the colour is), its P; and over the suns done,
+    /// each P times the sun's grey irradiance, and those irradiances.
+    this_lit: f32,
+    lit: f32,
+    irradiance: f32,
 }
 
 /// The slicing of one sun: the half vector, the slabs' range along it and the light buffer.
@@ -122,8 +124,10 @@ fn view_sample(ray: &Ray, h: Vec3, c: f32, d: f32, bounds: (Vec3, Vec3)) -> Opti
     })
 }
 
-/// Renders on the CPU; also returns the `shadow` factor per pixel.
-pub fn render(input: &HalfAngleInput, progress: &dyn Progress) -> Result<(RenderImage, Vec<f32>)> {
+/// Renders the image and its `shadow` layer ([`Factor`]: the suns' transmittance at each
+/// sample weighted by its contribution, summed along the ray, the suns' weighted by their
+/// irradiance, beside the coverage) on the CPU.
+pub fn render(input: &HalfAngleInput, progress: &dyn Progress) -> Result<RenderImage> {
     let d = input.setup()?;
     let camera = input.camera;
     let medium = Medium::new(input.volume, input.lut);
@@ -138,8 +142,9 @@ pub fn render(input: &HalfAngleInput, progress: &dyn Progress) -> Result<(Render
             transmittance: 1.0,
             total: 1.0,
             depth: BACKGROUND_DEPTH,
-            lit_at_depth: 0.0,
-            irradiance_at_depth: 0.0,
+            this_lit: 0.0,
+            lit: 0.0,
+            irradiance: 0.0,
         })
         .collect();
     let slicings: Vec<Slicing> = input
@@ -172,7 +177,10 @@ pub fn render(input: &HalfAngleInput, progress: &dyn Progress) -> Result<(Render
         } else {
             eyes.iter_mut().for_each(|eye| eye.transmittance = 1.0);
         }
-        eyes.iter_mut().for_each(|eye| eye.this_sun = Vec3::ZERO);
+        eyes.iter_mut().for_each(|eye| {
+            eye.this_sun = Vec3::ZERO;
+            eye.this_lit = 0.0;
+        });
         // The light buffer holds the optical depth each light ray has crossed: interpolated
         // between rays it errs far less than the transmittance where that falls by orders of
         // magnitude across a texel (a backlit body; IPSVI interpolates the same way).
@@ -217,8 +225,12 @@ pub fn render(input: &HalfAngleInput, progress: &dyn Progress) -> Result<(Render
             done += 1;
             progress.update(done, work);
         }
-        eyes.iter_mut()
-            .for_each(|eye| eye.scattered += eye.this_sun);
+        let grey = slicing.irradiance.element_sum() / 3.0;
+        eyes.iter_mut().for_each(|eye| {
+            eye.scattered += eye.this_sun;
+            eye.lit += grey * eye.this_lit;
+            eye.irradiance += grey;
+        });
     }
     let background = input.lighting.background;
     let mut image = RenderImage::new(camera.width, camera.height);
@@ -228,17 +240,20 @@ pub fn render(input: &HalfAngleInput, progress: &dyn Progress) -> Result<(Render
         image.rgba[p] = [c.x, c.y, c.z, 1.0 - t];
         image.depth[p] = eye.depth;
     }
-    let shadow = eyes
+    let coverage: Vec<f32> = image.rgba.iter().map(|p| p[3]).collect();
+    let premultiplied: Vec<f32> = eyes
         .iter()
-        .map(|e| {
-            if e.irradiance_at_depth > 0.0 {
-                (e.lit_at_depth / e.irradiance_at_depth).clamp(0.0, 1.0)
+        .zip(&coverage)
+        .map(|(e, &a)| {
+            if e.irradiance > 0.0 {
+                e.lit / e.irradiance
             } else {
-                1.0
+                a
             }
         })
         .collect();
-    Ok((image, shadow))
+    image.factor = Some(Factor::new("shadow", &premultiplied, &coverage));
+    Ok(image)
 }
 
 /// Adds one slab's sample (the sun's transmittance there `lit`) to the pixel's eye state,
@@ -261,25 +276,22 @@ fn shade(
     // The transmittance in front of this sample, for the depth.
     let in_front = if slicing.front_to_back {
         eye.this_sun += eye.transmittance * scattered;
+        eye.this_lit += eye.transmittance * alpha * lit;
         if first_pass {
             eye.emitted += eye.transmittance * own;
         }
         eye.transmittance
     } else {
         eye.this_sun = scattered + (1.0 - alpha) * eye.this_sun;
+        eye.this_lit = alpha * lit + (1.0 - alpha) * eye.this_lit;
         if first_pass {
             eye.emitted = own + (1.0 - alpha) * eye.emitted;
         }
         eye.total / (eye.transmittance * (1.0 - alpha)).max(f32::MIN_POSITIVE)
     };
     let behind = in_front * (1.0 - alpha);
-    if in_front > 0.5 && behind <= 0.5 {
-        if first_pass {
-            eye.depth = sample.t - 0.5 * sample.dt + (2.0 * in_front).ln() / optical.sigma_t;
-        }
-        let grey = slicing.irradiance.element_sum() / 3.0;
-        eye.irradiance_at_depth += grey;
-        eye.lit_at_depth += grey * lit;
+    if first_pass && in_front > 0.5 && behind <= 0.5 {
+        eye.depth = sample.t - 0.5 * sample.dt + (2.0 * in_front).ln() / optical.sigma_t;
     }
     eye.transmittance *= 1.0 - alpha;
 }

@@ -5,7 +5,7 @@ use crate::error::Result;
 use crate::lights::LightKind;
 use crate::registry::{MethodSpec, ParamKind, ParamSpec, Range, RenderMethod};
 use crate::render::reference::phase::G;
-use crate::render::{Factor, MethodInput, Rendered};
+use crate::render::{MethodInput, Rendered};
 
 pub const SLICE_DISTANCE: ParamSpec = ParamSpec {
     key: "slice_distance",
@@ -35,7 +35,7 @@ impl RenderMethod for HalfAngleParams {
         module: "render::half_angle",
         shaders: &[],
         lights: &[LightKind::Directional],
-        layers: &["beauty", "depth", "half-angle", "shadow"],
+        layers: &["beauty", "depth", "shadow"],
         grids: &[],
         chart: &[""],
         params: &[SLICE_DISTANCE, LIGHT_BUFFER, G],
@@ -55,12 +55,7 @@ impl RenderMethod for HalfAngleParams {
             lighting: input.lighting,
             params: self,
         };
-        let (mut image, shadow) = super::cpu::render(&half_angle, input.progress)?;
-        image.factor = Some(Factor {
-            method: "half-angle",
-            name: "shadow",
-            values: shadow,
-        });
+        let image = super::cpu::render(&half_angle, input.progress)?;
         Ok(Rendered {
             image,
             grids: Vec::new(),

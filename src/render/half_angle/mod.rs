@@ -20,8 +20,11 @@
 //! The optical model is IPSVI's and the Monte Carlo `single` reference's; what differs is the
 //! discretisation: the slab's material is sampled once per ray, and the light buffer holds the
 //! light that passed the slabs before, so a sample is not shadowed by its own slab. Depth (where the
-//! eye's transmittance falls through 0.5) and the `shadow` factor there are found front to
-//! back: for a back-to-front render by a second, extinction-only pass over the same slabs.
+//! eye's transmittance falls through 0.5) is found front to back: for a back-to-front render by
+//! a second, extinction-only pass over the same slabs. The `shadow` layer is IPSVI's
+//! ([`crate::render::Factor`]): the sun's transmittance at each sample composited with the
+//! sample's weight as its colour is (front to back or back to front), the suns' weighted by
+//! their irradiance, beside the coverage.
 //!
 //! Directional lights only (a lamp's slices would need a perspective light buffer); several
 //! suns are sliced one after the other (single scattering is linear in the lights), emission

@@ -25,13 +25,15 @@ struct PixelOut {
     emitted: Vec3,
     transmittance: f32,
     depth: f32,
-    /// Irradiance (grey) and irradiance times the light's transmittance at the depth.
-    irradiance_at_depth: f32,
-    lit_at_depth: f32,
+    /// The light's transmittance at each sample weighted by the sample's contribution
+    /// `transmittance * alpha`, summed: this light's P (see [`Gathered`]).
+    lit: f32,
+    /// The grey irradiance at each sample weighted the same way, summed: this light's weight.
+    irradiance: f32,
 }
 
-/// Renders the image on the CPU; also returns the `shadow` factor per pixel.
-pub fn render(input: &IpsviInput, progress: &dyn Progress) -> Result<(RenderImage, Vec<f32>)> {
+/// Renders the image and its `shadow` layer on the CPU.
+pub fn render(input: &IpsviInput, progress: &dyn Progress) -> Result<RenderImage> {
     let step = input.setup()?;
     let camera = input.camera;
     let occupancy = Occupancy::build(input.volume, input.lut);
@@ -84,8 +86,8 @@ pub fn render(input: &IpsviInput, progress: &dyn Progress) -> Result<(RenderImag
             for (pixel, out) in outs {
                 let g = &mut gathered[pixel as usize];
                 g.scattered += out.scattered;
-                g.lit += out.lit_at_depth;
-                g.irradiance += out.irradiance_at_depth;
+                g.lit += out.irradiance * out.lit;
+                g.irradiance += out.irradiance;
                 if pass == 0 {
                     g.emitted = out.emitted;
                     g.transmittance = out.transmittance;
@@ -266,14 +268,15 @@ impl Tracer<'_> {
             let scattered = self.scattered(&optical, x, ray.dir, light_t, light_depth, &place);
             out.scattered += out.transmittance * alpha * scattered;
             out.emitted += out.transmittance * emitted(&optical, alpha, dt);
+            // The shadow layer: the sample's light and irradiance with its contribution weight.
+            let weight = out.transmittance * alpha;
+            out.lit += weight * light_t;
+            if let Some((_, e)) = incident(self.light, x) {
+                out.irradiance += weight * (e.element_sum() / 3.0);
+            }
             let next = out.transmittance * (1.0 - alpha);
             if out.transmittance > 0.5 && next <= 0.5 {
                 out.depth = ta + (2.0 * out.transmittance).ln() / optical.sigma_t;
-                if let Some((_, e)) = incident(self.light, x) {
-                    let grey = e.element_sum() / 3.0;
-                    out.irradiance_at_depth = grey;
-                    out.lit_at_depth = grey * light_t;
-                }
             }
             out.transmittance = next;
             if out.transmittance < input.params.ert_threshold {

@@ -180,7 +180,7 @@ pub fn render(
     ctx: &GpuContext,
     input: &IpsviInput,
     progress: &dyn Progress,
-) -> Result<(RenderImage, Vec<f32>)> {
+) -> Result<RenderImage> {
     render_with_write_list(ctx, input, progress, WRITE_LIST_BYTES)
 }
 
@@ -191,7 +191,7 @@ pub fn render_with_write_list(
     input: &IpsviInput,
     progress: &dyn Progress,
     bytes: u64,
-) -> Result<(RenderImage, Vec<f32>)> {
+) -> Result<RenderImage> {
     let step = input.setup()?;
     let sweeps = input.sweeps();
     let volume = GpuVolume::upload(ctx, input.volume, input.lut)?;

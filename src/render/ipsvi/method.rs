@@ -6,7 +6,7 @@ use crate::lights::LightKind;
 use crate::registry::{Choice, MethodSpec, ParamKind, ParamSpec, Range, RenderMethod};
 use crate::render::raycast::{ERT_THRESHOLD, STEP};
 use crate::render::reference::phase::G;
-use crate::render::{Factor, MethodInput, Rendered};
+use crate::render::{MethodInput, Rendered};
 
 pub const CACHE_SIZE: ParamSpec = ParamSpec {
     key: "cache_size",
@@ -60,7 +60,7 @@ impl RenderMethod for IpsviParams {
         module: "render::ipsvi",
         shaders: &["ipsvi.wgsl", "ipsvi_merge.wgsl"],
         lights: &[LightKind::Directional, LightKind::Point],
-        layers: &["beauty", "depth", "ipsvi", "shadow"],
+        layers: &["beauty", "depth", "shadow"],
         grids: &[],
         chart: &["", "cache_size = 128", "scattering = \"multiple\""],
         params: &[
@@ -87,12 +87,7 @@ impl RenderMethod for IpsviParams {
             lighting: input.lighting,
             params: self,
         };
-        let (mut image, shadow) = super::render(input.compute, &ipsvi_input, input.progress)?;
-        image.factor = Some(Factor {
-            method: "ipsvi",
-            name: "shadow",
-            values: shadow,
-        });
+        let image = super::render(input.compute, &ipsvi_input, input.progress)?;
         Ok(Rendered {
             image,
             grids: Vec::new(),

@@ -41,9 +41,18 @@
 //! cache's texels, and one f32 per texel.
 //!
 //! Outputs: the image, depth (where the view transmittance falls through 0.5, as the ray
-//! caster's) and `shadow`: at that depth the lights' transmittance, weighted by their
-//! irradiance there (1 where the depth is background). Several lights are swept one after the
-//! other (single scattering is linear in the lights); emission and background are added once.
+//! caster's) and the `shadow` layer ([`crate::render::Factor`]): P, the lights' transmittance
+//! at each sample weighted by the sample's contribution `T alpha` and summed along the ray,
+//! beside its coverage A = 1 - T at the end (the image's alpha). Several lights are swept one
+//! after the other (single scattering is linear in the lights); emission and background are
+//! added once. Each light's pass gathers its own `P_l = sum T alpha T_l` and a weight
+//! `W_l = sum T alpha E_l` (its grey irradiance with the same weights), and the layer is the
+//! weighted mean `P = sum_l W_l P_l / sum_l W_l`: exactly `sum T alpha f` with
+//! `f = sum_l E_l T_l / sum_l E_l` (the lights' transmittance weighted by their irradiance at
+//! the sample) for one light and for any number of suns (whose irradiance does not vary), and
+//! that with each lamp's irradiance averaged along the ray when lamps are mixed with other
+//! lights (the passes cannot share a sample's irradiances). Where no light reaches the
+//! covered samples (lights of no irradiance) P = A.
 //! Extra memory: two u64 per cache texel, one f32 more with multiple scattering (the cache,
 //! its merge list and the chords grow with the image, not with the volume); on the GPU also a
 //! u32 per texel (the texels a line wrote) and a list of a line's writes (at most 64 MiB: long
@@ -65,7 +74,7 @@ use crate::error::{Error, Result};
 use crate::lights::{Light, Lighting};
 use crate::progress::Progress;
 use crate::registry::RenderMethod;
-use crate::render::{RenderImage, BACKGROUND_DEPTH};
+use crate::render::{Factor, RenderImage, BACKGROUND_DEPTH};
 use crate::volume::Volume;
 use cache::{CacheMap, Resolution};
 use glam::Vec3;
@@ -201,9 +210,10 @@ struct Sweep<'a> {
     map: CacheMap,
 }
 
-/// What one pixel gathers over every light's pass: the scattered light and the irradiance at
-/// the depth (plain and times the light's transmittance) summed over the lights; emission,
-/// view transmittance and depth from the first pass (they are the same in every pass).
+/// What one pixel gathers over every light's pass: the scattered light, and over the lights
+/// the shadow layer's weights `W_l` (`irradiance`) and `W_l P_l` (`lit`) of the module docs;
+/// emission, view transmittance and depth from the first pass (they are the same in every
+/// pass).
 #[derive(Clone, Copy, Debug)]
 struct Gathered {
     scattered: Vec3,
@@ -228,34 +238,37 @@ impl Default for Gathered {
     }
 }
 
-/// The image (background behind what the view let through) and the shadow factor (1 where
-/// no light reaches the depth) from what every pixel gathered; the twins share it.
-fn finish(camera: &Camera, background: Vec3, gathered: &[Gathered]) -> (RenderImage, Vec<f32>) {
+/// The image (background behind what the view let through) and its `shadow` layer from what
+/// every pixel gathered; the twins share it.
+fn finish(camera: &Camera, background: Vec3, gathered: &[Gathered]) -> RenderImage {
     let mut image = RenderImage::new(camera.width, camera.height);
     for (p, g) in gathered.iter().enumerate() {
         let c = g.scattered + g.emitted + g.transmittance * background;
         image.rgba[p] = [c.x, c.y, c.z, 1.0 - g.transmittance];
         image.depth[p] = g.depth;
     }
-    let shadow = gathered
+    let coverage: Vec<f32> = image.rgba.iter().map(|p| p[3]).collect();
+    let premultiplied: Vec<f32> = gathered
         .iter()
-        .map(|g| {
+        .zip(&coverage)
+        .map(|(g, &a)| {
             if g.irradiance > 0.0 {
-                (g.lit / g.irradiance).clamp(0.0, 1.0)
+                g.lit / g.irradiance
             } else {
-                1.0
+                a
             }
         })
         .collect();
-    (image, shadow)
+    image.factor = Some(Factor::new("shadow", &premultiplied, &coverage));
+    image
 }
 
-/// Renders on the chosen device; also returns the `shadow` factor per pixel.
+/// Renders the image and its `shadow` layer on the chosen device.
 pub fn render(
     compute: &crate::gpu::Compute,
     input: &IpsviInput,
     progress: &dyn Progress,
-) -> Result<(RenderImage, Vec<f32>)> {
+) -> Result<RenderImage> {
     match compute {
         crate::gpu::Compute::Cpu => cpu::render(input, progress),
         crate::gpu::Compute::Gpu(ctx) => gpu::render(ctx, input, progress),

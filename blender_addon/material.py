@@ -1,0 +1,217 @@
+"""The Volume object's material and the world it needs: the transfer function on the `value`
+grid as Occlux classifies it (the mapping `occlux.cycles` verifies against Cycles,
+docs/cycles-mapping.md: the trilinear value through the control points, extinction per scene
+unit), and the `ao` grid wired in.
+
+AO shadings:
+- ``AMBIENT`` (the ambient light, baked): the material emits the world's light that the `ao`
+  grid lets reach each point, sigma_t * albedo * L_world * mix(1, ao, strength), and the world
+  lights only camera rays (it stays the background; `camera_only_world`), so Cycles renders
+  what Occlux's AO-shaded render computes (`method = "ao"`, no direct light) while suns and
+  lamps still scatter with Cycles' own shadows. With the `sweep-physical` grid (the mean
+  transmittance over all directions) this is the single-scattered sky light itself.
+- ``ALBEDO``: the albedo darkened by mix(1, ao, strength), lit by Cycles as it is: the world's
+  light is occluded twice (by Cycles and by the grid), a stylised look that deepens crevices.
+
+Plain data API (no operators), so it works headless."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import bpy
+
+AO_SHADINGS = ("AMBIENT", "ALBEDO")
+AO_FACTOR = "Occlux AO factor"
+AMBIENT = "Occlux ambient light"
+# The world's Mix Shader that keeps its light from everything but camera rays.
+CAMERA_ONLY = "Occlux world for camera rays only"
+
+# (value, sigma_t, albedo RGB, emission RGB): `occlux.Classification.raw_points`, density
+# scale applied.
+Point = tuple[float, float, Sequence[float], Sequence[float]]
+Rgb = tuple[float, float, float]
+
+
+def _ramp(tree: bpy.types.NodeTree, stops: Sequence[tuple[float, Sequence[float]]]):
+    """A linear Color Ramp through `stops` (position in [0, 1], RGBA)."""
+    node = tree.nodes.new("ShaderNodeValToRGB")
+    ramp = node.color_ramp
+    ramp.interpolation = "LINEAR"
+    while len(ramp.elements) > 1:
+        ramp.elements.remove(ramp.elements[-1])
+    ramp.elements[0].position = stops[0][0]
+    for position, _ in stops[1:]:
+        ramp.elements.new(position)
+    for element, (_, rgba) in zip(ramp.elements, stops, strict=True):
+        element.color = tuple(rgba)
+    return node
+
+
+def _math(tree: bpy.types.NodeTree, operation: str, a, b):
+    """`a operation b` for float sockets or values."""
+    node = tree.nodes.new("ShaderNodeMath")
+    node.operation = operation
+    for socket, x in zip(node.inputs, (a, b), strict=False):
+        if isinstance(x, float | int):
+            socket.default_value = float(x)
+        else:
+            tree.links.new(x, socket)
+    return node.outputs["Value"]
+
+
+def _colour(tree: bpy.types.NodeTree, blend: str, a, b):
+    """`a blend b` for colour sockets (MULTIPLY, ADD), factor 1; a float `b` is a grey."""
+    node = tree.nodes.new("ShaderNodeMix")
+    node.data_type = "RGBA"
+    node.blend_type = blend
+    node.inputs["Factor"].default_value = 1.0
+    tree.links.new(a, node.inputs[6])  # A (colour)
+    tree.links.new(b, node.inputs[7])  # B (colour)
+    return node.outputs[2]  # Result (colour)
+
+
+def _classified(tree: bpy.types.NodeTree, points: Sequence[Point]):
+    """The `value` grid through the control points: sockets sigma_t, albedo and the emission
+    (None without any)."""
+    value = tree.nodes.new("ShaderNodeAttribute")
+    value.attribute_type = "GEOMETRY"
+    value.attribute_name = "value"
+    to_unit = tree.nodes.new("ShaderNodeMapRange")
+    to_unit.clamp = True  # the transfer function is constant beyond its end points
+    lo, hi = points[0][0], points[-1][0]
+    to_unit.inputs["From Min"].default_value = lo
+    to_unit.inputs["From Max"].default_value = hi if hi > lo else lo + 1.0
+    tree.links.new(value.outputs["Fac"], to_unit.inputs["Value"])
+    positions = [(p[0] - lo) / (hi - lo) if hi > lo else 0.0 for p in points]
+    # Albedo in RGB, sigma_t / max in alpha: one ramp, one table.
+    top = max(p[1] for p in points) or 1.0
+    optics = _ramp(tree, [(t, (*p[2], p[1] / top)) for t, p in zip(positions, points, strict=True)])
+    tree.links.new(to_unit.outputs["Result"], optics.inputs["Fac"])
+    sigma_t = _math(tree, "MULTIPLY", optics.outputs["Alpha"], top)
+    brightest = max(max(p[3]) for p in points)
+    if brightest <= 0.0:
+        return sigma_t, optics.outputs["Color"], None
+    glow = [(*(e / brightest for e in p[3]), 1.0) for p in points]
+    ramp = _ramp(tree, list(zip(positions, glow, strict=True)))
+    tree.links.new(to_unit.outputs["Result"], ramp.inputs["Fac"])
+    emitted = _colour(tree, "MULTIPLY", ramp.outputs["Color"], _grey(tree, brightest))
+    return sigma_t, optics.outputs["Color"], emitted
+
+
+def volume_material(
+    name: str, points: Sequence[Point] | None, ao: str | None, ao_factor: float, ambient: Rgb
+) -> bpy.types.Material:
+    """A Principled Volume with Occlux's classification of the `value` grid: Density = sigma_t,
+    Color = albedo, the transfer function's emission, Absorption Color black (for a 2D transfer
+    function, `points` None: the classified `density` grid and a grey albedo); with an `ao`
+    grid, shaded by `ao` (`AO_SHADINGS`, see the module) with the strength in the value node
+    AO_FACTOR (the panel's AO strength) and the world's radiance `ambient` in the colour node
+    AMBIENT (for AMBIENT shading)."""
+    if ao is not None and ao not in AO_SHADINGS:
+        raise ValueError(f"ao shading '{ao}': expected one of {', '.join(AO_SHADINGS)}")
+    material = bpy.data.materials.new(name)
+    material.cycles.volume_interpolation = "LINEAR"  # trilinear, as Occlux samples
+    tree = material.node_tree
+    tree.nodes.clear()
+    shader = tree.nodes.new("ShaderNodeVolumePrincipled")
+    # Density and colour come from the `value` grid through the points: a grid named `density`
+    # would otherwise multiply the density, and `color` the colour.
+    shader.inputs["Density Attribute"].default_value = ""
+    shader.inputs["Color Attribute"].default_value = ""
+    shader.inputs["Absorption Color"].default_value = (0.0, 0.0, 0.0, 1.0)
+    shader.inputs["Blackbody Intensity"].default_value = 0.0
+    shader.inputs["Emission Strength"].default_value = 1.0
+    output = tree.nodes.new("ShaderNodeOutputMaterial")
+    tree.links.new(shader.outputs["Volume"], output.inputs["Volume"])
+
+    emitted = None
+    if points is None:  # a 2D transfer function: the classified `density` grid, grey
+        density = tree.nodes.new("ShaderNodeAttribute")
+        density.attribute_type = "GEOMETRY"
+        density.attribute_name = "density"
+        sigma_t = density.outputs["Fac"]
+        albedo = _grey(tree, 0.8)
+    else:
+        sigma_t, albedo, emitted = _classified(tree, points)
+    tree.links.new(sigma_t, shader.inputs["Density"])
+
+    if ao is not None:
+        grid = tree.nodes.new("ShaderNodeAttribute")
+        grid.attribute_type = "GEOMETRY"
+        grid.attribute_name = "ao"
+        factor = tree.nodes.new("ShaderNodeValue")
+        factor.name = factor.label = AO_FACTOR
+        factor.outputs[0].default_value = ao_factor
+        shade = tree.nodes.new("ShaderNodeMix")  # mix(1, ao, factor)
+        shade.data_type = "FLOAT"
+        shade.inputs["A"].default_value = 1.0
+        tree.links.new(factor.outputs[0], shade.inputs["Factor"])
+        tree.links.new(grid.outputs["Fac"], shade.inputs["B"])
+        openness = shade.outputs["Result"]
+        if ao == "AMBIENT":
+            light = tree.nodes.new("ShaderNodeRGB")
+            light.name = light.label = AMBIENT
+            light.outputs[0].default_value = (*ambient, 1.0)
+            # sigma_t * albedo * L_world * openness: the ambient light each point scatters
+            # towards the camera, seen by camera rays only (a ray cast after a scattering
+            # would collect it again: Cycles scatters once even at 0 volume bounces, and
+            # measured +65 % on the CT phantom without this).
+            seen = tree.nodes.new("ShaderNodeLightPath").outputs["Is Camera Ray"]
+            weight = _math(tree, "MULTIPLY", _math(tree, "MULTIPLY", sigma_t, openness), seen)
+            scattered = _colour(tree, "MULTIPLY", albedo, light.outputs[0])
+            scattered = _colour(tree, "MULTIPLY", scattered, _as_colour(tree, weight))
+            emitted = scattered if emitted is None else _colour(tree, "ADD", emitted, scattered)
+        else:
+            albedo = _colour(tree, "MULTIPLY", albedo, _as_colour(tree, openness))
+    tree.links.new(albedo, shader.inputs["Color"])
+    if emitted is None:
+        shader.inputs["Emission Strength"].default_value = 0.0
+    else:
+        tree.links.new(emitted, shader.inputs["Emission Color"])
+    return material
+
+
+def _grey(tree: bpy.types.NodeTree, value: float):
+    node = tree.nodes.new("ShaderNodeRGB")
+    node.outputs[0].default_value = (value, value, value, 1.0)
+    return node.outputs[0]
+
+
+def _as_colour(tree: bpy.types.NodeTree, value):
+    """A float socket as a grey colour."""
+    node = tree.nodes.new("ShaderNodeCombineColor")
+    for channel in node.inputs[:3]:
+        tree.links.new(value, channel)
+    return node.outputs["Color"]
+
+
+def camera_only_world(scene: bpy.types.Scene) -> None:
+    """Keeps the world's light from everything but camera rays (it stays the background): a
+    Light Path's Is Camera Ray mixes the world's shader with black before the World Output, in
+    a Mix Shader named CAMERA_ONLY. Done once; a world without nodes gets a Background node of
+    its colour first."""
+    world = scene.world or bpy.data.worlds.new("World")
+    scene.world = world
+    tree = world.node_tree
+    if tree is None:
+        world.use_nodes = True
+        tree = world.node_tree
+    if CAMERA_ONLY in tree.nodes:
+        return
+    output = next((n for n in tree.nodes if n.bl_idname == "ShaderNodeOutputWorld"), None)
+    if output is None:
+        output = tree.nodes.new("ShaderNodeOutputWorld")
+    links = output.inputs["Surface"].links
+    if links:
+        source = links[0].from_socket
+    else:
+        background = tree.nodes.new("ShaderNodeBackground")
+        background.inputs["Color"].default_value = (*world.color, 1.0)
+        source = background.outputs["Background"]
+    path = tree.nodes.new("ShaderNodeLightPath")
+    mix = tree.nodes.new("ShaderNodeMixShader")  # shader 1 (factor 0) unconnected: black
+    mix.name = mix.label = CAMERA_ONLY
+    tree.links.new(path.outputs["Is Camera Ray"], mix.inputs["Fac"])
+    tree.links.new(source, mix.inputs[2])
+    tree.links.new(mix.outputs["Shader"], output.inputs["Surface"])
