@@ -20,6 +20,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 
 import bpy
+from occlux.cycles.material import color_ramp
 
 AO_SHADINGS = ("AMBIENT", "ALBEDO")
 AO_FACTOR = "Occlux AO factor"
@@ -31,21 +32,6 @@ CAMERA_ONLY = "Occlux world for camera rays only"
 # scale applied.
 Point = tuple[float, float, Sequence[float], Sequence[float]]
 Rgb = tuple[float, float, float]
-
-
-def _ramp(tree: bpy.types.NodeTree, stops: Sequence[tuple[float, Sequence[float]]]):
-    """A linear Color Ramp through `stops` (position in [0, 1], RGBA)."""
-    node = tree.nodes.new("ShaderNodeValToRGB")
-    ramp = node.color_ramp
-    ramp.interpolation = "LINEAR"
-    while len(ramp.elements) > 1:
-        ramp.elements.remove(ramp.elements[-1])
-    ramp.elements[0].position = stops[0][0]
-    for position, _ in stops[1:]:
-        ramp.elements.new(position)
-    for element, (_, rgba) in zip(ramp.elements, stops, strict=True):
-        element.color = tuple(rgba)
-    return node
 
 
 def _math(tree: bpy.types.NodeTree, operation: str, a, b):
@@ -86,14 +72,15 @@ def _classified(tree: bpy.types.NodeTree, points: Sequence[Point]):
     positions = [(p[0] - lo) / (hi - lo) if hi > lo else 0.0 for p in points]
     # Albedo in RGB, sigma_t / max in alpha: one ramp, one table.
     top = max(p[1] for p in points) or 1.0
-    optics = _ramp(tree, [(t, (*p[2], p[1] / top)) for t, p in zip(positions, points, strict=True)])
+    optics_stops = [(*p[2], p[1] / top) for p in points]
+    optics = color_ramp(tree, list(zip(positions, optics_stops, strict=True)))
     tree.links.new(to_unit.outputs["Result"], optics.inputs["Fac"])
     sigma_t = _math(tree, "MULTIPLY", optics.outputs["Alpha"], top)
     brightest = max(max(p[3]) for p in points)
     if brightest <= 0.0:
         return sigma_t, optics.outputs["Color"], None
     glow = [(*(e / brightest for e in p[3]), 1.0) for p in points]
-    ramp = _ramp(tree, list(zip(positions, glow, strict=True)))
+    ramp = color_ramp(tree, list(zip(positions, glow, strict=True)))
     tree.links.new(to_unit.outputs["Result"], ramp.inputs["Fac"])
     emitted = _colour(tree, "MULTIPLY", ramp.outputs["Color"], _grey(tree, brightest))
     return sigma_t, optics.outputs["Color"], emitted

@@ -9,7 +9,7 @@
 //! term by sqrt(a), the light's transmittance through the front half of the sample's slab.
 
 mod common;
-use common::layers::{assert_continuous, linear_extinction, premultiplied, soft_sphere};
+use common::layers::{assert_continuous, linear_extinction, premultiplied, soft_sphere_scene};
 
 use glam::{Vec2, Vec3};
 use occlux::camera::{Camera, Projection};
@@ -290,17 +290,7 @@ fn the_occlusion_layer_is_continuous_across_a_soft_silhouette() {
     // Measured: 0.68 (theta 30) and 0.52 (theta 70) times (largest steps 0.203 and 0.156
     // against alpha's 0.299), where a layer thresholded at opacity 0.5 steps 2.5 and 1.9 times
     // as far (0.76, 0.56).
-    let volume = soft_sphere(32);
-    let lut = linear_extinction(&volume, 12.0);
-    let camera = Camera::look_at(
-        Vec3::new(2.0, -3.0, 1.2),
-        Vec3::ZERO,
-        Vec3::Z,
-        Projection::Perspective { fov_y: 0.5 },
-        48,
-        48,
-    )
-    .unwrap();
+    let (volume, lut, camera) = soft_sphere_scene();
     for theta_deg in [30.0, 70.0] {
         let params = DosParams {
             theta_deg,

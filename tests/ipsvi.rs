@@ -4,7 +4,7 @@
 //! half-angle slicing, against the same closed forms.
 
 mod common;
-use common::layers::{assert_continuous, linear_extinction, premultiplied, soft_sphere};
+use common::layers::{assert_continuous, linear_extinction, premultiplied, soft_sphere_scene};
 
 use glam::Vec3;
 use occlux::camera::{intersect_box, Camera, Projection, Ray};
@@ -284,17 +284,7 @@ fn the_shadow_layer_is_continuous_across_a_soft_silhouette() {
     // steps between neighbouring pixels at most 1.25 times as far as the image's alpha does.
     // Measured: 0.91 and 0.93 times (largest steps 0.270 and 0.276 against alpha's 0.298),
     // where a layer thresholded at opacity 0.5 steps 3.2 times as far (0.96).
-    let volume = soft_sphere(32);
-    let lut = linear_extinction(&volume, 12.0);
-    let camera = Camera::look_at(
-        Vec3::new(2.0, -3.0, 1.2),
-        Vec3::ZERO,
-        Vec3::Z,
-        Projection::Perspective { fov_y: 0.5 },
-        48,
-        48,
-    )
-    .unwrap();
+    let (volume, lut, camera) = soft_sphere_scene();
     for to_light in [Vec3::new(1.0, 0.4, 0.5), Vec3::new(-0.5, -1.0, 1.5)] {
         let img = render(
             &volume,

@@ -49,6 +49,25 @@ def image_size(render, longest: int) -> tuple[int, int]:
     return max(1, round(w * scale)), max(1, round(h * scale))
 
 
+def occlux_side(
+    scene: Any, source: scenes.VolumeInput, compute: Callable[[Any], Any]
+) -> tuple[Path, Path, Any, Any, float]:
+    """Occlux's half of a check: loads the scene's volume, writes its `value` grid (what the
+    harness maps onto Cycles) into a new temporary folder, and runs `compute(volume)`, timed.
+    Returns (folder, VDB, volume, result, seconds); on any failure the folder is removed."""
+    folder = Path(tempfile.mkdtemp(prefix="occlux-check-"))
+    try:
+        volume = scenes.load_volume(scene, source)
+        vdb = folder / f"{source.stem}.vdb"
+        occlux.write_vdb(vdb, {"value": volume})
+        started = time.perf_counter()
+        result = compute(volume)
+    except BaseException:
+        shutil.rmtree(folder)
+        raise
+    return folder, vdb, volume, result, time.perf_counter() - started
+
+
 @dataclass(frozen=True)
 class Figure:
     """An Occlux method's render, the scene it rendered, and what Cycles' truth of it needs: the
@@ -126,17 +145,10 @@ class OCCLUX_OT_check_cycles(OccluxJob, bpy.types.Operator):
         device = settings.device
 
         def work(progress: JobProgress) -> Figure:
-            folder = Path(tempfile.mkdtemp(prefix="occlux-check-"))
-            try:
-                volume = scenes.load_volume(scene, source)
-                vdb = folder / f"{source.stem}.vdb"
-                occlux.write_vdb(vdb, {"value": volume})  # what the harness maps onto Cycles
-                started = time.perf_counter()
-                result = occlux.render(scene, volume=volume, device=device, progress=progress)
-                seconds = time.perf_counter() - started
-            except BaseException:
-                shutil.rmtree(folder)
-                raise
+            def compute(volume):
+                return occlux.render(scene, volume=volume, device=device, progress=progress)
+
+            folder, vdb, volume, result, seconds = occlux_side(scene, source, compute)
             image = np.asarray(result.beauty)
             return Figure(
                 folder, source.stem, method, scene, described.tree, vdb, volume, image,
@@ -210,20 +222,13 @@ class OCCLUX_OT_check_cycles(OccluxJob, bpy.types.Operator):
         estimator, spp = settings.check_estimator, settings.check_spp
 
         def work(progress: JobProgress) -> Reference:
-            folder = Path(tempfile.mkdtemp(prefix="occlux-check-"))
-            try:
-                volume = scenes.load_volume(scene, source)
-                vdb = folder / f"{source.stem}.vdb"
-                occlux.write_vdb(vdb, {"value": volume})  # what the harness maps onto Cycles
-                started = time.perf_counter()
-                result = occlux.reference(
+            def compute(volume):
+                return occlux.reference(
                     scene, estimator=estimator, spp=spp, seed=oc.OCCLUX_SEED, volume=volume,
                     progress=progress,
                 )  # fmt: skip
-            except BaseException:
-                shutil.rmtree(folder)
-                raise
-            seconds = time.perf_counter() - started
+
+            folder, vdb, _, result, seconds = occlux_side(scene, source, compute)
             return Reference(folder, source.stem, scene, vdb, result, seconds)
 
         return work

@@ -3,6 +3,7 @@
 //! coverage and as continuous as it.
 
 use glam::Vec3;
+use occlux::camera::{Camera, Projection};
 use occlux::classify::{
     Classification, ControlPoint, Lut, TransferFunction, TransferFunction1D, ValueUnits,
 };
@@ -18,6 +19,23 @@ pub fn soft_sphere(n: usize) -> Volume {
         t * t * (3.0 - 2.0 * t)
     })
     .unwrap()
+}
+
+/// The soft sphere at 32^3 under an extinction of 12 per unit at its centre, and a 48 x 48
+/// perspective camera that frames it whole.
+pub fn soft_sphere_scene() -> (Volume, Lut, Camera) {
+    let volume = soft_sphere(32);
+    let lut = linear_extinction(&volume, 12.0);
+    let camera = Camera::look_at(
+        Vec3::new(2.0, -3.0, 1.2),
+        Vec3::ZERO,
+        Vec3::Z,
+        Projection::Perspective { fov_y: 0.5 },
+        48,
+        48,
+    )
+    .unwrap();
+    (volume, lut, camera)
 }
 
 /// Extinction `sigma` times the value, grey albedo 0.8.

@@ -28,8 +28,9 @@ def _socket(sockets, identifier: str):
     return next(s for s in sockets if s.identifier == identifier)
 
 
-def _ramp(tree, stops: Sequence[tuple[float, tuple[float, float, float, float]]]):
-    """A Color Ramp node with LINEAR interpolation through (position, RGBA) stops."""
+def color_ramp(tree, stops: Sequence[tuple[float, Sequence[float]]]):
+    """A Color Ramp node with LINEAR interpolation through (position, RGBA) stops, positions
+    ascending (the add-on's volume material builds its ramps with it too)."""
     node = tree.nodes.new("ShaderNodeValToRGB")
     ramp = node.color_ramp
     ramp.interpolation = "LINEAR"
@@ -121,7 +122,7 @@ def make_material(bpy, points: Sequence[TfPoint], box: tuple[Rgb, Rgb], g: float
     positions = _ramp_positions(points)
     # Albedo in RGB, sigma_t / max in alpha: one ramp, one table.
     max_sigma = max(p.sigma_t for p in points)
-    optics = _ramp(
+    optics = color_ramp(
         tree,
         [(t, (*p.albedo, p.sigma_t / max_sigma)) for t, p in zip(positions, points, strict=True)],
     )
@@ -146,7 +147,7 @@ def make_material(bpy, points: Sequence[TfPoint], box: tuple[Rgb, Rgb], g: float
     volume.inputs["Blackbody Intensity"].default_value = 0.0
     max_emission = max(max(p.emission) for p in points)
     if max_emission > 0.0:
-        emission = _ramp(
+        emission = color_ramp(
             tree,
             [
                 (t, (*(e / max_emission for e in p.emission), 1.0))
