@@ -4,7 +4,7 @@
 
 use crate::error::{Error, Result};
 use crate::eval::chart::plot::{png_font_registered, write_png, FAMILY};
-use crate::eval::sweep_accuracy::design_error;
+use crate::eval::sweep_accuracy::{design_error, shows_volume};
 use plotters::prelude::*;
 use plotters::style::text_anchor::{HPos, Pos, VPos};
 use std::path::Path;
@@ -83,9 +83,8 @@ pub fn write_error_map(
         ));
     }
     let grey = |p: &[f32; 3]| (p[0] + p[1] + p[2]) as f64 / 3.0;
-    let inside = |p: &[f32; 3]| (grey(p) - background as f64).abs() > 0.005 * background as f64;
     let volume: Vec<usize> = (0..reference.len())
-        .filter(|&i| inside(&reference[i]))
+        .filter(|&i| shows_volume(&reference[i], background))
         .collect();
     let sum: f64 = volume.iter().map(|&i| grey(&reference[i])).sum();
     if volume.is_empty() || sum <= 0.0 {

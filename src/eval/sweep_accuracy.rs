@@ -68,6 +68,13 @@ pub struct SweepRow {
     pub render_ms: f64,
 }
 
+/// Whether a reference pixel shows the volume: its grey differs from the background's by more
+/// than 0.5 % of it (DESIGN.md's pixels to measure over).
+pub fn shows_volume(reference: &[f32; 3], background: f32) -> bool {
+    let grey = (reference[0] + reference[1] + reference[2]) as f64 / 3.0;
+    (grey - background as f64).abs() > 0.005 * background as f64
+}
+
 /// Relative RMSE, bias and reference noise over the pixels where the reference differs from the
 /// background by more than 0.5 % of it (DESIGN.md).
 pub fn design_error(
@@ -81,8 +88,7 @@ pub fn design_error(
     }
     let (mut sq, mut sum, mut sum_image, mut noise, mut n) = (0.0f64, 0.0, 0.0, 0.0, 0usize);
     for (p, (a, b)) in image.iter().zip(reference).enumerate() {
-        let grey = (b[0] + b[1] + b[2]) as f64 / 3.0;
-        if (grey - background as f64).abs() <= 0.005 * background as f64 {
+        if !shows_volume(b, background) {
             continue;
         }
         for c in 0..3 {
