@@ -33,6 +33,7 @@ SOURCES = (
     "operators/jobs.py",
     "operators/volume.py",
     "operators/render.py",
+    "truth.py",
     "operators/check.py",
     "operators/composite.py",
     "operators/stage.py",

@@ -174,17 +174,27 @@ def _as_colour(tree: bpy.types.NodeTree, value):
 
 
 def camera_only_world(scene: bpy.types.Scene) -> None:
+    """Keeps the scene's world's light from everything but camera rays (`camera_only`); a
+    scene without a world gets one."""
+    world = scene.world or bpy.data.worlds.new("World")
+    scene.world = world
+    camera_only(world)
+
+
+def camera_only(world: bpy.types.World) -> None:
     """Keeps the world's light from everything but camera rays (it stays the background): a
     Light Path's Is Camera Ray mixes the world's shader with black before the World Output, in
     a Mix Shader named CAMERA_ONLY. Done once; a world without nodes gets a Background node of
     its colour first."""
-    world = scene.world or bpy.data.worlds.new("World")
-    scene.world = world
     tree = world.node_tree
     if tree is None:
         world.use_nodes = True
         tree = world.node_tree
     if CAMERA_ONLY in tree.nodes:
+        mix = tree.nodes[CAMERA_ONLY]
+        if not mix.inputs["Fac"].links:  # lit by `all_rays`: gated again
+            path = tree.nodes.new("ShaderNodeLightPath")
+            tree.links.new(path.outputs["Is Camera Ray"], mix.inputs["Fac"])
         return
     output = next((n for n in tree.nodes if n.bl_idname == "ShaderNodeOutputWorld"), None)
     if output is None:
@@ -202,3 +212,33 @@ def camera_only_world(scene: bpy.types.Scene) -> None:
     tree.links.new(path.outputs["Is Camera Ray"], mix.inputs["Fac"])
     tree.links.new(source, mix.inputs[2])
     tree.links.new(mix.outputs["Shader"], output.inputs["Surface"])
+
+
+def all_rays(world: bpy.types.World) -> None:
+    """Undoes `camera_only`: the world lights every ray again (its CAMERA_ONLY mix passes the
+    world's shader whatever the ray)."""
+    tree = world.node_tree
+    if tree is None or CAMERA_ONLY not in tree.nodes:
+        return
+    mix = tree.nodes[CAMERA_ONLY]
+    for link in list(mix.inputs["Fac"].links):
+        tree.links.remove(link)
+    mix.inputs["Fac"].default_value = 1.0
+
+
+def without_ao(shading: bpy.types.Material, g: float) -> None:
+    """Turns the `ao` grid's shading off in a material `volume_material` made (the openness
+    counts fully unoccluded and the AMBIENT emission is black, while the transfer function's
+    own emission stays) and gives its volume shaders the phase asymmetry `g`, where the user has
+    not wired one: the material of the path-traced truth of an AO figure."""
+    if shading.node_tree is None:
+        return
+    nodes = shading.node_tree.nodes
+    if AO_FACTOR in nodes:
+        nodes[AO_FACTOR].outputs[0].default_value = 0.0
+    if AMBIENT in nodes:
+        nodes[AMBIENT].outputs[0].default_value = (0.0, 0.0, 0.0, 1.0)
+    for node in nodes:
+        anisotropy = node.inputs.get("Anisotropy")
+        if node.bl_idname.startswith("ShaderNodeVolume") and anisotropy and not anisotropy.links:
+            anisotropy.default_value = g

@@ -113,6 +113,19 @@ def selected_source(context: bpy.types.Context) -> VolumeInput:
     return VolumeInput.from_settings(context.scene.occlux, path)
 
 
+def dataset_object(context: bpy.types.Context, source: VolumeInput) -> bpy.types.Object | None:
+    """The Volume object that shows `source` in the scene: the active Occlux volume, else the
+    first of the scene's Occlux volumes loaded from the same file; None if none does."""
+    active = volume_object(context)
+    if active is not None:
+        return active
+    for obj in context.scene.objects:
+        if obj.type == "VOLUME" and "occlux_source" in obj:
+            if Path(bpy.path.abspath(str(obj["occlux_source"]))).resolve() == source.path:
+                return obj
+    return None
+
+
 def classification_section(settings) -> dict[str, Any]:
     return {"preset": settings.preset, "density_scale": float(settings.density_scale)}
 

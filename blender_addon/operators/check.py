@@ -1,11 +1,15 @@
-"""The check against Cycles, of the figure or of the reference. Both render the active Occlux
-volume with the scene's camera and lights through the harness `occlux.cycles`, which maps the
-Occlux scene onto Cycles (docs/cycles-mapping.md):
+"""The check against Cycles, of the figure or of the reference:
 - The figure: the chosen Occlux method (AO-shaded, DOS, IPSVI, with the panel's settings)
   against Cycles' path-traced truth of its lighting (the world for AO and DOS, suns and point
   lamps for IPSVI): DESIGN.md's relative RMSE and bias over the volume's pixels, both times,
-  and a map of the difference with a colour key.
-- The reference: Occlux's Monte Carlo reference against Cycles, within noise (z scores)."""
+  and a map of the difference with a colour key. Cycles renders the user's scene as it stands
+  (the dataset's Volume object with its material, the camera, the world, the lamps; see
+  `truth`); without an Occlux Volume object in the scene, the harness `occlux.cycles` maps the
+  panel's classification of the file onto Cycles (docs/cycles-mapping.md).
+- The reference: Occlux's Monte Carlo reference against Cycles' rendering of the harness's
+  mapping of the same scene, within noise (z scores).
+Occlux's half runs on the job's thread; Cycles' renders (bpy: the main thread) are the job's
+steps, one render each, with progress and ESC between them."""
 
 from __future__ import annotations
 
@@ -14,7 +18,7 @@ import math
 import shutil
 import tempfile
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Generator
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -23,8 +27,8 @@ import bpy
 import numpy as np
 import occlux
 
-from .. import scenes
-from .jobs import JobProgress, OccluxJob, report_dir
+from .. import scenes, truth
+from .jobs import JobProgress, OccluxJob, Step, Steps, report_dir
 from .render import dos_section, ipsvi_section
 from .volume import ao_section
 
@@ -86,6 +90,9 @@ class Figure:
     estimator: str
     bounces: int
     g: float
+    kinds: tuple[str, ...]
+    size: tuple[int, int]
+    volume_object: str | None
 
 
 # Each checked method: its `render` section from the panel and the lights it renders.
@@ -96,6 +103,24 @@ FIGURE_METHODS = {
 }
 # Volume bounces of Cycles' truth for IPSVI's multiple scattering (its references' count).
 MULTIPLE_BOUNCES = 8
+RENDERS = "Cycles render"
+
+
+def cycles_renders(scene: Any, spp: int, seeds: int) -> Generator[Step, None, Any]:
+    """Cycles' renders of a built scene (`occlux.cycles.render_seeds`) as a job's steps, one
+    render each; returns the CyclesImage."""
+    import occlux.cycles as oc
+
+    renders = oc.render_seeds(scene, spp, seeds)
+    yield Step(RENDERS, 0, seeds)  # the status says what comes before the first render
+    try:
+        while True:
+            done = next(renders)
+            yield Step(RENDERS, done.done, done.total)
+    except StopIteration as end:
+        return end.value
+    finally:
+        renders.close()
 
 
 def truth_of(method: str, settings) -> tuple[str, int, float]:
@@ -123,11 +148,11 @@ class OCCLUX_OT_check_cycles(OccluxJob, bpy.types.Operator):
             return self.prepare_figure(context)
         return self.prepare_reference(context)
 
-    def finish(self, context: bpy.types.Context, result: Any) -> str:
+    def finish_steps(self, context: bpy.types.Context, result: Any) -> Steps:
         if isinstance(result, Figure):
-            message = self.finish_figure(context, result)
+            message = yield from self.finish_figure(context, result)
         else:
-            message = self.finish_reference(context, result)
+            message = yield from self.finish_reference(context, result)
         return f"{message}; {self._left_out}" if self._left_out else message
 
     def prepare_figure(self, context: bpy.types.Context) -> Callable[[JobProgress], Figure]:
@@ -143,6 +168,8 @@ class OCCLUX_OT_check_cycles(OccluxJob, bpy.types.Operator):
         self._left_out = described.left_out
         estimator, bounces, g = truth_of(method, settings)
         device = settings.device
+        shown = scenes.dataset_object(context, source)
+        shown_name = None if shown is None else shown.name  # the object may go meanwhile
 
         def work(progress: JobProgress) -> Figure:
             def compute(volume):
@@ -152,26 +179,25 @@ class OCCLUX_OT_check_cycles(OccluxJob, bpy.types.Operator):
             image = np.asarray(result.beauty)
             return Figure(
                 folder, source.stem, method, scene, described.tree, vdb, volume, image,
-                seconds, estimator, bounces, g,
+                seconds, estimator, bounces, g, kinds, (width, height), shown_name,
             )  # fmt: skip
 
         return work
 
-    def finish_figure(self, context: bpy.types.Context, figure: Figure) -> str:
-        # Cycles renders through bpy, which only the main thread may call: this part blocks.
+    def finish_figure(self, context: bpy.types.Context, figure: Figure) -> Steps:
         import occlux.cycles as oc
 
         settings = context.scene.occlux
         spp, seeds = settings.check_spp, settings.check_seeds
         try:
-            truth = oc.build_scene(
-                figure.scene, figure.vdb, figure.estimator, figure.bounces, figure.g,
-                volume=figure.volume,
-            )  # fmt: skip
-            cycles = oc.render_scene(truth, spp, seeds)
+            built = self.truth_scene(context, figure)
+            oc.check_camera(built.scene, figure.scene.describe()["camera"])
+            cycles = yield from cycles_renders(built.scene, spp, seeds)
         finally:
-            oc._remove_previous(bpy)  # the harness's scene, objects and world
+            oc.remove_built()  # the harness's scene, objects, materials and world
             shutil.rmtree(figure.folder)
+        notes = "; ".join(built.notes)
+        self._left_out = "; ".join(n for n in (self._left_out, notes) if n)
         background = float(np.mean(figure.tree["background"]))
         figures = occlux.image_error(figure.image, cycles.mean, background, cycles.stderr)
         out = report_dir(settings)
@@ -186,6 +212,7 @@ class OCCLUX_OT_check_cycles(OccluxJob, bpy.types.Operator):
             "method": figure.tree["render"],
             "truth": {"estimator": figure.estimator, "bounces": figure.bounces, "g": figure.g},
             "size": list(figure.image.shape[1::-1]),
+            "cycles_scene": built.holds,
             "cycles_spp": spp,
             "cycles_seeds": seeds,
             **figures,
@@ -210,6 +237,26 @@ class OCCLUX_OT_check_cycles(OccluxJob, bpy.types.Operator):
             f"Cycles {cycles.seconds:.1f} s; error map '{image.name}' (+-{key:.0%})"
         )
 
+    def truth_scene(self, context: bpy.types.Context, figure: Figure) -> truth.Truth:
+        """Cycles' scene of the figure: the user's own (`truth.figure_truth`) when an Occlux
+        Volume object shows the dataset, else the harness's mapping of the file."""
+        import occlux.cycles as oc
+
+        obj = bpy.data.objects.get(figure.volume_object) if figure.volume_object else None
+        if obj is not None:
+            return truth.figure_truth(
+                context, obj, figure.kinds, figure.bounces, figure.g, figure.size
+            )
+        built = oc.build_scene(
+            figure.scene, figure.vdb, figure.estimator, figure.bounces, figure.g,
+            volume=figure.volume,
+        )  # fmt: skip
+        note = (
+            "no Occlux volume object shows the file: Cycles rendered the panel's "
+            "classification of it (Load Volume adds one)"
+        )
+        return truth.Truth(built, {"harness": "the panel's classification of the file"}, [note])
+
     def prepare_reference(self, context: bpy.types.Context) -> Callable[[JobProgress], Reference]:
         import occlux.cycles as oc
 
@@ -233,17 +280,16 @@ class OCCLUX_OT_check_cycles(OccluxJob, bpy.types.Operator):
 
         return work
 
-    def finish_reference(self, context: bpy.types.Context, ref: Reference) -> str:
-        # Cycles renders through bpy, which only the main thread may call: this part blocks.
+    def finish_reference(self, context: bpy.types.Context, ref: Reference) -> Steps:
         import occlux.cycles as oc
 
         settings = context.scene.occlux
         estimator, spp, seeds = settings.check_estimator, settings.check_spp, settings.check_seeds
         try:
             scene = oc.build_scene(ref.scene, ref.vdb, estimator)
-            cycles = oc.render_scene(scene, spp, seeds)
+            cycles = yield from cycles_renders(scene, spp, seeds)
         finally:
-            oc._remove_previous(bpy)  # the harness's scene, objects and world
+            oc.remove_built()  # the harness's scene, objects and world
             shutil.rmtree(ref.folder)
         occlux_image = oc.OccluxImage(
             np.asarray(ref.result.mean, np.float64),

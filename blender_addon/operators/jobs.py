@@ -4,14 +4,18 @@ A job's `prepare` reads the settings and checks them on the main thread and retu
 function of a `JobProgress` that touches no Blender data (so that it can run in a thread);
 `finish` brings its result into the scene on the main thread. From the UI (invoke) the work runs
 on a thread while a modal timer shows its progress and ESC cancels it; from scripts (execute) it
-runs on the calling thread. A job that fails or is cancelled adds nothing."""
+runs on the calling thread. A job whose main-thread part is long (the Cycles renders of the
+check: bpy may only be called from the main thread) gives it as `finish_steps`, which the timer
+runs one step at a time, showing progress and taking ESC between steps. A job that fails or is
+cancelled adds nothing."""
 
 from __future__ import annotations
 
 import tempfile
 import threading
 import warnings
-from collections.abc import Callable
+from collections.abc import Callable, Generator
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -67,6 +71,7 @@ class JobProgress:
         self.done = 0
         self.total = 1
         self.calls = 0
+        self.steps_done = 0  # of the main-thread part, counted by the job
         self.cancel_after = cancel_after
         self.cancel = threading.Event()
         self.lock = threading.Lock()
@@ -83,6 +88,27 @@ class JobProgress:
     def fraction(self) -> float:
         with self.lock:
             return min(self.done / self.total, 1.0)
+
+
+@dataclass(frozen=True)
+class Step:
+    """A step of a job's main-thread part done: `done` of `total` of `what` (e.g. Cycles'
+    renders)."""
+
+    what: str
+    done: int
+    total: int
+
+    @property
+    def fraction(self) -> float:
+        return min(self.done / max(self.total, 1), 1.0)
+
+    def status(self, label: str) -> str:
+        return f"{label}: {self.what} {self.done} of {self.total} (Esc cancels)"
+
+
+# A job's main-thread part: yields after each step, returns the job's message.
+Steps = Generator[Step, None, str]
 
 
 def set_status(context: bpy.types.Context, text: str, fraction: float = 0.0) -> None:
@@ -135,16 +161,25 @@ def cancel_all() -> None:
     ACTIVE.clear()
 
 
-class OccluxJob:
-    """The frame of a long operator (see the module's docstring)."""
-
-    cancel_after: IntProperty(
-        name="Cancel after",
-        description="Cancel after this many progress reports, as ESC does (for scripts and "
-        "tests; 0: never)",
+def scripted_cancel_property(name: str, counted: str) -> Any:
+    """A hidden operator property that cancels the job after a number of `counted`, as ESC
+    does: for scripts and tests."""
+    return IntProperty(
+        name=name,
+        description=f"Cancel after this many {counted}, as ESC does (for scripts and tests; "
+        "0: never)",
         min=0,
         default=0,
         options={"HIDDEN", "SKIP_SAVE"},
+    )
+
+
+class OccluxJob:
+    """The frame of a long operator (see the module's docstring)."""
+
+    cancel_after: scripted_cancel_property("Cancel after", "progress reports")
+    cancel_after_steps: scripted_cancel_property(
+        "Cancel after steps", "steps of the main-thread part (e.g. Cycles' renders)"
     )
 
     def prepare(self, context: bpy.types.Context) -> Callable[[JobProgress], Any]:
@@ -153,18 +188,33 @@ class OccluxJob:
     def finish(self, context: bpy.types.Context, result: Any) -> str:
         raise NotImplementedError
 
+    def finish_steps(self, context: bpy.types.Context, result: Any) -> Steps:
+        """The main-thread part in steps (see the module); by default one, `finish`. A step
+        that adds data must remove it when the generator is closed (cancelled) or fails."""
+        yield from ()
+        return self.finish(context, result)
+
+    def scripted_cancel(self, steps_done: int) -> bool:
+        """Whether the scripted cancel (`cancel_after_steps`) falls after this many steps."""
+        return 0 < self.cancel_after_steps <= steps_done
+
     def errors(self) -> tuple[type[BaseException], ...]:
         return (OSError, ValueError, TypeError, occlux.OccluxError)
 
     def execute(self, context: bpy.types.Context) -> set[str]:
         """The synchronous path (scripts, EXEC_DEFAULT): the same work, on this thread."""
+        self._timer = None  # no modal timer: `end_modal` has nothing to end
         progress = JobProgress(self.cancel_after)
         set_status(context, f"{self.bl_label}: running")
         try:
             result, notices = run_recording(self.prepare(context), progress)
         except self.errors() as e:
             return self.failed(context, e, progress)
-        return self.succeeded(context, result, notices)
+        steps = self.finish_steps(context, result)
+        while True:
+            state = self.advance(context, steps, progress, notices)
+            if state is not None:
+                return state
 
     @classmethod
     def poll(cls, context: bpy.types.Context) -> bool:
@@ -179,6 +229,7 @@ class OccluxJob:
             return self.failed(context, e, None)
         wm = context.window_manager
         self._run = BackgroundRun(work, JobProgress(self.cancel_after))
+        self._steps: Steps | None = None
         self._timer = wm.event_timer_add(0.1, window=context.window)
         wm.progress_begin(0, 1)
         wm.modal_handler_add(self)
@@ -188,29 +239,67 @@ class OccluxJob:
     def modal(self, context: bpy.types.Context, event: bpy.types.Event) -> set[str]:
         run = self._run
         if event.type == "ESC" and event.value == "PRESS":
+            if self._steps is not None:  # between two main-thread steps: stop here
+                return self.cancel_steps(context, self._steps, run.progress)
             run.progress.cancel.set()  # the core stops at its next progress report
             set_status(context, f"{self.bl_label}: cancelling", run.progress.fraction)
             return {"RUNNING_MODAL"}
         if event.type != "TIMER":
             return {"PASS_THROUGH"}
-        wm = context.window_manager
-        if run.running:
-            wm.progress_update(run.progress.fraction)
+        if self._steps is None and run.running:
+            context.window_manager.progress_update(run.progress.fraction)
             set_status(context, f"{self.bl_label}: running (Esc cancels)", run.progress.fraction)
             return {"RUNNING_MODAL"}
+        if self._steps is None and run.error is not None:
+            self.end_modal(context)
+            if isinstance(run.error, self.errors()):
+                return self.failed(context, run.error, run.progress)
+            raise run.error
+        if self._steps is None:
+            self._steps = self.finish_steps(context, run.result)
+        # One step per timer event: the UI, and ESC, get their turn between two.
+        state = self.advance(context, self._steps, run.progress, run.notices)
+        return {"RUNNING_MODAL"} if state is None else state
+
+    def advance(
+        self, context: bpy.types.Context, steps: Steps, progress: JobProgress, notices: list[str]
+    ) -> set[str] | None:
+        """Runs the next step of the main-thread part: the operator's final state once the
+        steps end, fail or are cancelled, else None (more to do)."""
+        try:
+            step = next(steps)
+        except StopIteration as end:
+            self.end_modal(context)
+            return self.succeeded(context, end.value, notices)
+        except self.errors() as e:
+            self.end_modal(context)
+            return self.failed(context, e, None)
+        progress.steps_done += 1
+        if self.scripted_cancel(progress.steps_done):
+            return self.cancel_steps(context, steps, progress)
+        if self._timer is not None:
+            context.window_manager.progress_update(step.fraction)
+        set_status(context, step.status(self.bl_label), step.fraction)
+        return None
+
+    def cancel_steps(
+        self, context: bpy.types.Context, steps: Steps, progress: JobProgress
+    ) -> set[str]:
+        """Cancels the main-thread part between two steps (closing it removes what it added)."""
+        progress.cancel.set()
+        steps.close()
+        self.end_modal(context)
+        return self.failed(context, None, progress)
+
+    def end_modal(self, context: bpy.types.Context) -> None:
+        """Removes the modal timer and the progress bar (none on the synchronous path)."""
+        if self._timer is None:
+            return
+        wm = context.window_manager
         wm.event_timer_remove(self._timer)
         wm.progress_end()
-        if run.error is None:
-            return self.succeeded(context, run.result, run.notices)
-        if isinstance(run.error, self.errors()):
-            return self.failed(context, run.error, run.progress)
-        raise run.error
 
-    def succeeded(self, context: bpy.types.Context, result: Any, notices: list[str]) -> set[str]:
-        try:
-            message = self.finish(context, result)
-        except self.errors() as e:
-            return self.failed(context, e, None)
+    def succeeded(self, context: bpy.types.Context, message: str, notices: list[str]) -> set[str]:
         for notice in notices:
             self.report({"WARNING"}, notice)
             message += f"; {notice}"
@@ -219,7 +308,10 @@ class OccluxJob:
         return {"FINISHED"}
 
     def failed(
-        self, context: bpy.types.Context, error: BaseException, progress: JobProgress | None
+        self,
+        context: bpy.types.Context,
+        error: BaseException | None,
+        progress: JobProgress | None,
     ) -> set[str]:
         if progress is not None and progress.cancel.is_set():
             message = f"{self.bl_label}: cancelled, nothing was added"

@@ -150,6 +150,9 @@ def show_volume(
     name = loaded.source.stem
     data = bpy.data.volumes.new(name)
     data.filepath = str(loaded.vdb)
+    # Cycles reads the grids at full precision, none clipped as empty: Occlux's values.
+    data.render.precision = "FULL"
+    data.render.clipping = 0.0
     if not data.grids.load():
         error = data.grids.error_message
         bpy.data.volumes.remove(data)

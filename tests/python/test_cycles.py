@@ -488,9 +488,7 @@ def test_a_scene_object_builds_the_same_blender_scene(phantom, tmp_path, openvdb
     grid.copyToArray(dense, ijk=tuple(int(i) for i in np.round(ijk)))
     want = np.pad(np.asarray(volume.values), 1, mode="edge").transpose(2, 1, 0)
     np.testing.assert_array_equal(dense, want)
-    import bpy
-
-    oc._remove_previous(bpy)
+    oc.remove_built()
 
 
 def test_the_core_writes_what_the_harness_gives_it(tmp_path):

@@ -30,13 +30,16 @@ From Python::
 from occlux.cycles.blender import (
     SEQUENCE_LENGTH,
     CyclesImage,
-    _remove_previous,
+    SeedDone,
     build_scene,
     camera_frustum,
     check_camera,
+    cycles_settings,
     padded_value_grid,
+    remove_built,
     render_cycles,
     render_scene,
+    render_seeds,
 )
 from occlux.cycles.bundled import bpy_site_packages, bundled_module
 from occlux.cycles.check import Check, check
@@ -99,8 +102,8 @@ __all__ = [
     "Report",
     "Rgb",
     "SceneSpec",
+    "SeedDone",
     "TfPoint",
-    "_remove_previous",
     "bpy_site_packages",
     "build_scene",
     "bundled_module",
@@ -108,6 +111,7 @@ __all__ = [
     "check",
     "check_camera",
     "compare",
+    "cycles_settings",
     "error_map",
     "load_scene",
     "main",
@@ -115,8 +119,10 @@ __all__ = [
     "padded_value_grid",
     "read_channels",
     "read_reference",
+    "remove_built",
     "render_cycles",
     "render_scene",
+    "render_seeds",
     "write_outputs",
     "z_scores",
 ]

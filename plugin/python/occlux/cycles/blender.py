@@ -11,7 +11,7 @@ import os
 import sys
 import tempfile
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Generator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -112,8 +112,10 @@ def _free_persistent_data(scene) -> None:
         scene.render.use_persistent_data = False
 
 
-def _remove_previous(bpy) -> None:
-    """Removes the data a previous build made (and nothing else of the session's)."""
+def remove_built() -> None:
+    """Removes the data a previous build made: every scene, object, volume, material, world,
+    camera and lamp named with PREFIX (and nothing else of the session's)."""
+    bpy = bpy_module()
     for scene in bpy.data.scenes:
         if scene.name.startswith(PREFIX):
             _free_persistent_data(scene)
@@ -186,8 +188,9 @@ def _light_objects(bpy, lights: Sequence[LightSpec]) -> list:
     return objects
 
 
-def _cycles_settings(scene, bounces: int) -> None:
-    """Unbiased, unfiltered, undenoised path tracing on the CPU."""
+def cycles_settings(scene, bounces: int) -> None:
+    """Sets `scene` up for unbiased, unfiltered, undenoised path tracing on the CPU with
+    `bounces` volume bounces, into a linear 32-bit EXR."""
     render = scene.render
     render.engine = "CYCLES"
     render.film_transparent = False
@@ -251,7 +254,7 @@ def build_scene(
     bounces, g = effective_options(estimator, bounces, g)
     spec = load_scene(scene, volume)
     bpy = bpy_module()
-    _remove_previous(bpy)
+    remove_built()
     grid_path = padded_value_grid(vdb_path, spec)
     scene = bpy.data.scenes.new(f"{PREFIX}-scene")
     volume = bpy.data.volumes.new(f"{PREFIX}-volume")
@@ -278,7 +281,7 @@ def build_scene(
     scene.world = make_world(bpy, environment, spec.background)
     for light in _light_objects(bpy, lights):
         scene.collection.objects.link(light)
-    _cycles_settings(scene, bounces)
+    cycles_settings(scene, bounces)
     return scene
 
 
@@ -349,17 +352,21 @@ def quiet_stdout():
         os.close(saved)
 
 
-def render_scene(
-    scene,
-    spp: int,
-    seeds: int = DEFAULT_SEEDS,
-    progress: Callable[[int, int], object] | None = None,
-) -> CyclesImage:
-    """Renders a built scene ``seeds`` times with distinct seeds (none equal to Occlux's), each
-    with ``spp // seeds`` samples, and returns the per-pixel mean and standard error.
+@dataclass(frozen=True)
+class SeedDone:
+    """Progress of :func:`render_seeds`: ``done`` of ``total`` renders finished."""
 
-    Each render is a subset (its own samples) of one SEQUENCE_LENGTH-sample sequence: Cycles
-    renders whose sample count is small are biased (see SEQUENCE_LENGTH)."""
+    done: int
+    total: int
+
+
+def render_seeds(
+    scene, spp: int, seeds: int = DEFAULT_SEEDS
+) -> Generator[SeedDone, None, CyclesImage]:
+    """:func:`render_scene` one render at a time: a generator that yields after each seed's
+    render and returns the CyclesImage, so that a caller on Blender's main thread (which every
+    render needs) can show progress and stop between renders. Closing it early frees the
+    render engine and the renders' files."""
     if seeds < 2:
         raise HarnessError(f"seeds must be at least 2 (for a standard error), got {seeds}")
     per_seed = spp // seeds
@@ -390,14 +397,35 @@ def render_scene(
                 rgb = np.stack([channels[ch] for ch in "RGB"], axis=-1).astype(np.float64)
                 total = total + rgb
                 total_sq = total_sq + rgb * rgb
-                if progress is not None:
-                    progress(k + 1, seeds)
+                yield SeedDone(k + 1, seeds)
     finally:
         _free_persistent_data(scene)
     seconds = time.perf_counter() - started
     mean = total / seeds
     variance = np.maximum(total_sq - seeds * mean * mean, 0.0) / (seeds - 1)
     return CyclesImage(mean, np.sqrt(variance / seeds), seed_list, per_seed, seconds)
+
+
+def render_scene(
+    scene,
+    spp: int,
+    seeds: int = DEFAULT_SEEDS,
+    progress: Callable[[int, int], object] | None = None,
+) -> CyclesImage:
+    """Renders a built scene ``seeds`` times with distinct seeds (none equal to Occlux's), each
+    with ``spp // seeds`` samples, and returns the per-pixel mean and standard error;
+    ``progress(done, total)`` after each render.
+
+    Each render is a subset (its own samples) of one SEQUENCE_LENGTH-sample sequence: Cycles
+    renders whose sample count is small are biased (see SEQUENCE_LENGTH)."""
+    renders = render_seeds(scene, spp, seeds)
+    while True:
+        try:
+            step = next(renders)
+        except StopIteration as end:
+            return end.value
+        if progress is not None:
+            progress(step.done, step.total)
 
 
 def render_cycles(
