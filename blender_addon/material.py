@@ -226,6 +226,13 @@ def all_rays(world: bpy.types.World) -> None:
     mix.inputs["Fac"].default_value = 1.0
 
 
+def carries_ambient(shading: bpy.types.Material | None) -> bool:
+    """Whether a material emits the world's light as AMBIENT shading does (then the world must
+    light only camera rays)."""
+    tree = None if shading is None else shading.node_tree
+    return tree is not None and AMBIENT in tree.nodes
+
+
 def without_ao(shading: bpy.types.Material, g: float) -> None:
     """Turns the `ao` grid's shading off in a material `volume_material` made (the openness
     counts fully unoccluded and the AMBIENT emission is black, while the transfer function's

@@ -180,8 +180,12 @@ def show_volume(
         release(previous)
         shading.name = f"Occlux {name}"  # the released material's name, free again
     obj["occlux_source"] = loaded.source.setting
-    if ao == "AMBIENT":  # the material carries the world's light: the world lights the camera
+    # A material of AMBIENT shading carries the world's light, so the world lights only camera
+    # rays while one shows; otherwise (e.g. shading switched to ALBEDO) it lights every ray.
+    if any(material.carries_ambient(o.active_material) for o in context.scene.objects):
         material.camera_only_world(context.scene)
+    elif context.scene.world is not None:
+        material.all_rays(context.scene.world)
     for other in context.view_layer.objects:
         other.select_set(other == obj)
     context.view_layer.objects.active = obj
