@@ -1,6 +1,6 @@
 // One 1D pass of the VAO statistics, one invocation per line of the volume along the pass's
-// axis. It mirrors src/ao/vao/stats.rs operation for operation: a running mean recomputed
-// every w = 2R + 1 steps, van Herk/Gil-Werman extremes through the prefix and suffix buffers,
+// axis. It mirrors src/ao/vao/stats.rs operation for operation: a running mean of deviations
+// from a local offset, recomputed every w = 2R + 1 steps, van Herk/Gil-Werman extremes through the prefix and suffix buffers,
 // and the outside value beyond the ends of the line.
 
 // Params.reduce (vao::stats::Reduce::shader_code).
@@ -61,15 +61,18 @@ fn reduce2(a: f32, b: f32) -> f32 {
 
 fn running_mean(r: i32, w: i32) {
     let wf = f32(w);
+    // The sum of deviations from a local offset, as in stats.rs (why: see there).
     var acc = 0.0;
+    var offset = 0.0;
     for (var i = 0; i < n; i = i + 1) {
         if (i % w == 0) {
+            offset = input(i);
             acc = 0.0;
             for (var j = i - r; j <= i + r; j = j + 1) {
-                acc = acc + input(j);
+                acc = acc + (input(j) - offset);
             }
         }
-        dst[at(i)] = acc / wf;
+        dst[at(i)] = offset + acc / wf;
         acc = acc + (input(i + r + 1) - input(i - r));
     }
 }
