@@ -2,28 +2,51 @@
 // They mirror src/volume/mod.rs so that GPU and CPU twins agree.
 
 // Trilinear sample at continuous index coordinates c (voxel centres at integers), clamped to the
-// edge voxels: Volume::sample_index. Voxel i's centre sits at texture coordinate (i + 0.5) / n,
-// so the texture's linear, clamp-to-edge sampler does the interpolation. Clamping c first, as the
-// CPU does, keeps far-away (or infinite) coordinates out of the filter.
-fn sample_volume(tex: texture_3d<f32>, samp: sampler, c: vec3<f32>, dims: vec3<f32>) -> f32 {
+// edge voxels: Volume::sample_index, operation for operation. The eight voxels are loaded and
+// interpolated here in f32 rather than by a sampler: hardware filtering computes its weights in
+// low precision (8 fractional bits on many GPUs), which puts steps of 1/256 of a voxel into
+// every sample, and would need FLOAT32_FILTERABLE, which many adapters lack, for r32float.
+// Clamping c first keeps far-away (or infinite) coordinates out of the integer conversion.
+fn sample_volume(tex: texture_3d<f32>, c: vec3<f32>, dims: vec3<f32>) -> f32 {
     let clamped = clamp(c, vec3<f32>(0.0), dims - 1.0);
-    return textureSampleLevel(tex, samp, (clamped + 0.5) / dims, 0.0).r;
+    // clamped >= 0, so the conversion truncates to the floor, as the CPU's does.
+    let i0 = vec3<u32>(clamped);
+    let f = clamped - vec3<f32>(i0);
+    let i1 = min(i0 + 1u, vec3<u32>(dims) - 1u);
+    let c00 = along_x(tex, i0.x, i1.x, i0.y, i0.z, f.x);
+    let c10 = along_x(tex, i0.x, i1.x, i1.y, i0.z, f.x);
+    let c01 = along_x(tex, i0.x, i1.x, i0.y, i1.z, f.x);
+    let c11 = along_x(tex, i0.x, i1.x, i1.y, i1.z, f.x);
+    return lerp(lerp(c00, c10, f.y), lerp(c01, c11, f.y), f.z);
+}
+
+// The value between voxels (x0, y, z) and (x1, y, z) at fraction t.
+fn along_x(tex: texture_3d<f32>, x0: u32, x1: u32, y: u32, z: u32, t: f32) -> f32 {
+    return lerp(
+        textureLoad(tex, vec3<u32>(x0, y, z), 0).r,
+        textureLoad(tex, vec3<u32>(x1, y, z), 0).r,
+        t,
+    );
+}
+
+// a + (b - a) t, the CPU's lerp (WGSL's mix may be computed as a (1 - t) + b t).
+fn lerp(a: f32, b: f32, t: f32) -> f32 {
+    return a + (b - a) * t;
 }
 
 // Gradient in world units at index coordinates c: central differences of samples one voxel
 // apart along each axis, divided by 2 * spacing (Volume::gradient).
 fn volume_gradient(
     tex: texture_3d<f32>,
-    samp: sampler,
     c: vec3<f32>,
     dims: vec3<f32>,
     spacing: vec3<f32>,
 ) -> vec3<f32> {
-    let dx = sample_volume(tex, samp, c + vec3<f32>(1.0, 0.0, 0.0), dims)
-        - sample_volume(tex, samp, c - vec3<f32>(1.0, 0.0, 0.0), dims);
-    let dy = sample_volume(tex, samp, c + vec3<f32>(0.0, 1.0, 0.0), dims)
-        - sample_volume(tex, samp, c - vec3<f32>(0.0, 1.0, 0.0), dims);
-    let dz = sample_volume(tex, samp, c + vec3<f32>(0.0, 0.0, 1.0), dims)
-        - sample_volume(tex, samp, c - vec3<f32>(0.0, 0.0, 1.0), dims);
+    let dx = sample_volume(tex, c + vec3<f32>(1.0, 0.0, 0.0), dims)
+        - sample_volume(tex, c - vec3<f32>(1.0, 0.0, 0.0), dims);
+    let dy = sample_volume(tex, c + vec3<f32>(0.0, 1.0, 0.0), dims)
+        - sample_volume(tex, c - vec3<f32>(0.0, 1.0, 0.0), dims);
+    let dz = sample_volume(tex, c + vec3<f32>(0.0, 0.0, 1.0), dims)
+        - sample_volume(tex, c - vec3<f32>(0.0, 0.0, 1.0), dims);
     return vec3<f32>(dx, dy, dz) / (2.0 * spacing);
 }

@@ -4,6 +4,7 @@
 //#include "common.wgsl"
 //#include "view.wgsl"
 //#include "classify.wgsl"
+//#include "occupancy.wgsl"
 
 const BACKGROUND_DEPTH: f32 = 1.0e10;
 const MAX_CLIP_PLANES: u32 = 6u;
@@ -31,6 +32,9 @@ struct Params {
     planes: u32,
     // 1: a sample's light is attenuated through the front half of its own segment.
     self_occlusion: u32,
+    // The occupancy grid: cells per axis, voxels per cell side.
+    cells: vec3<u32>,
+    cell_voxels: u32,
     clip_planes: array<ClipPlane, MAX_CLIP_PLANES>,
 };
 
@@ -54,20 +58,28 @@ struct Slab {
 
 @group(0) @binding(0) var<uniform> params: Params;
 @group(0) @binding(1) var volume: texture_3d<f32>;
-@group(0) @binding(2) var volume_sampler: sampler;
-@group(0) @binding(3) var<storage, read> lut: array<vec4<f32>>;
-@group(0) @binding(4) var<storage, read> samples: array<ConeSample>;
+@group(0) @binding(2) var<storage, read> lut: array<vec4<f32>>;
+@group(0) @binding(3) var<storage, read> samples: array<ConeSample>;
 // Occlusion buffers W, one plane per ring, laid out (row, plane, column): the previous slab's,
 // read; this slab's, written.
-@group(0) @binding(5) var<storage, read> previous: array<f32>;
-@group(0) @binding(6) var<storage, read_write> next: array<f32>;
+@group(0) @binding(4) var<storage, read> previous: array<f32>;
+@group(0) @binding(5) var<storage, read_write> next: array<f32>;
 // Eye buffer: radiance and transmittance; depth and the occlusion layer's P (the light each
 // sample receives weighted by its contribution, summed).
-@group(0) @binding(7) var<storage, read_write> eye: array<vec4<f32>>;
-@group(0) @binding(8) var<storage, read_write> eye_depth: array<vec2<f32>>;
-@group(0) @binding(9) var<uniform> slab: Slab;
+@group(0) @binding(6) var<storage, read_write> eye: array<vec4<f32>>;
+@group(0) @binding(7) var<storage, read_write> eye_depth: array<vec2<f32>>;
+@group(0) @binding(8) var<uniform> slab: Slab;
 // Path length through the previous slab per plane.
-@group(0) @binding(10) var<storage, read> ring_lengths: array<f32>;
+@group(0) @binding(9) var<storage, read> ring_lengths: array<f32>;
+// Occupancy flags (src/render/occupancy.rs): slabs whose sample lies in an empty cell pass the
+// light on unchanged, with no sample taken, as on the CPU.
+@group(0) @binding(10) var<storage, read> occupancy: array<u32>;
+
+// Whether the occupancy cell may hold matter (Occupancy::occupied).
+fn occupied(cell: vec3<u32>) -> bool {
+    let n = params.cells;
+    return occupancy[cell.x + n.x * (cell.y + n.y * cell.z)] != 0u;
+}
 
 // Index of plane p's texel (i, j) in the occlusion buffers.
 fn texel(p: u32, i: i32, j: i32) -> u32 {
@@ -113,9 +125,9 @@ fn material(p: vec3<f32>) -> Optical {
     let dims = volume_dims(view);
     var g = 0.0;
     if (params.lut.gradient_max > 0.0) {
-        g = length(volume_gradient(volume, volume_sampler, c, dims, view.spacing));
+        g = length(volume_gradient(volume, c, dims, view.spacing));
     }
-    let v = sample_volume(volume, volume_sampler, c, dims);
+    let v = sample_volume(volume, c, dims);
     return lut_lookup(v, g, params.lut);
 }
 
@@ -140,7 +152,12 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
     var tau = 0.0;
     if (tb > ta) {
         let dt = tb - ta;
-        let o = material(ray.origin + (0.5 * (ta + tb)) * ray.dir);
+        let p = ray.origin + (0.5 * (ta + tb)) * ray.dir;
+        let cell = occupancy_cell(index_of(params.view, p), params.cells, params.cell_voxels);
+        var o = Optical(0.0, vec3<f32>(0.0), vec3<f32>(0.0));
+        if (occupied(cell)) {
+            o = material(p);
+        }
         if (o.sigma_t > 0.0 || any(o.emission != vec3<f32>(0.0))) {
             var e = eye[index];
             let alpha = 1.0 - exp(-o.sigma_t * dt);

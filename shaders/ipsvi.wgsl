@@ -118,7 +118,6 @@ struct Held {
 
 @group(0) @binding(0) var<uniform> params: Params;
 @group(0) @binding(1) var volume: texture_3d<f32>;
-@group(0) @binding(2) var volume_sampler: sampler;
 @group(0) @binding(3) var<storage, read> lut: array<vec4<f32>>;
 @group(0) @binding(4) var<storage, read> occupancy: array<u32>;
 // The pixels (x + width * y) of this dispatch, in sweep order.
@@ -149,9 +148,9 @@ fn optical_at(p: vec3<f32>) -> Optical {
     let dims = volume_dims(view);
     var g = 0.0;
     if (params.lut.gradient_max > 0.0) {
-        g = length(volume_gradient(volume, volume_sampler, c, dims, view.spacing));
+        g = length(volume_gradient(volume, c, dims, view.spacing));
     }
-    return lut_lookup(sample_volume(volume, volume_sampler, c, dims), g, params.lut);
+    return lut_lookup(sample_volume(volume, c, dims), g, params.lut);
 }
 
 // v / |v| as glam's normalize computes it: v times the reciprocal of the length.

@@ -59,15 +59,14 @@ struct Params {
 
 @group(0) @binding(0) var<uniform> params: Params;
 @group(0) @binding(1) var volume: texture_3d<f32>;
-@group(0) @binding(2) var volume_sampler: sampler;
-@group(0) @binding(3) var<storage, read> lut: array<vec4<f32>>;
-@group(0) @binding(4) var<storage, read_write> out_rgba: array<vec4<f32>>;
-@group(0) @binding(5) var<storage, read_write> out_depth: array<f32>;
-@group(0) @binding(6) var<storage, read> occupancy: array<u32>;
+@group(0) @binding(2) var<storage, read> lut: array<vec4<f32>>;
+@group(0) @binding(3) var<storage, read_write> out_rgba: array<vec4<f32>>;
+@group(0) @binding(4) var<storage, read_write> out_depth: array<f32>;
+@group(0) @binding(5) var<storage, read> occupancy: array<u32>;
 // AO shading: openness and the opacity modulation factor on the volume's grid (one-voxel
-// stand-ins otherwise), sampled with the volume's sampler.
-@group(0) @binding(7) var ao_openness: texture_3d<f32>;
-@group(0) @binding(8) var ao_opacity: texture_3d<f32>;
+// stand-ins otherwise), interpolated as the volume is (sample_volume).
+@group(0) @binding(6) var ao_openness: texture_3d<f32>;
+@group(0) @binding(7) var ao_opacity: texture_3d<f32>;
 
 // Whether the occupancy cell may hold matter (Occupancy::occupied).
 fn occupied(cell: vec3<u32>) -> bool {
@@ -76,16 +75,16 @@ fn occupied(cell: vec3<u32>) -> bool {
 }
 
 fn sample_at(p: vec3<f32>) -> f32 {
-    return sample_volume(volume, volume_sampler, index_of(params.view, p), volume_dims(params.view));
+    return sample_volume(volume, index_of(params.view, p), volume_dims(params.view));
 }
 
 fn ao_at(tex: texture_3d<f32>, p: vec3<f32>) -> f32 {
-    return sample_volume(tex, volume_sampler, index_of(params.view, p), volume_dims(params.view));
+    return sample_volume(tex, index_of(params.view, p), volume_dims(params.view));
 }
 
 fn gradient_at(p: vec3<f32>) -> vec3<f32> {
     let view = params.view;
-    return volume_gradient(volume, volume_sampler, index_of(view, p), volume_dims(view), view.spacing);
+    return volume_gradient(volume, index_of(view, p), volume_dims(view), view.spacing);
 }
 
 fn lookup(v: f32, g: f32) -> Optical {

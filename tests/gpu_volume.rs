@@ -5,7 +5,7 @@
 use std::sync::Arc;
 
 use glam::Vec3;
-use occlux::gpu::{buffer, shader, shared_context, GpuContext, VolumeFormat, VolumeTexture};
+use occlux::gpu::{buffer, shader, shared_context, GpuContext, VolumeTexture};
 use occlux::volume::Volume;
 
 /// The process-wide context: the device opens (and the kernel compiles) once per test binary.
@@ -58,7 +58,6 @@ fn gpu_samples(
         &[
             uniform.as_entire_binding(),
             wgpu::BindingResource::TextureView(&tex.view),
-            wgpu::BindingResource::Sampler(&tex.sampler),
             input.as_entire_binding(),
             output.as_entire_binding(),
         ],
@@ -140,20 +139,16 @@ fn gradient_tolerance(volume: &Volume, value_tolerance: f32) -> Vec3 {
     Vec3::splat(value_tolerance) / volume.spacing()
 }
 
-/// How far the sampler's filter may stray from exact trilinear interpolation of the stored
-/// texels, where neighbouring texels differ by up to `span`. lavapipe (a CPU device)
-/// interpolates in f32: 1e-5 of the span. Hardware samplers round the weights to
-/// subTexelPrecisionBits (8 on NVIDIA, AMD and Intel): up to 2^-8 of the span per axis.
-fn filter_tolerance(ctx: &GpuContext, span: f32) -> f32 {
-    if ctx.adapter_info.device_type == wgpu::DeviceType::Cpu {
-        1e-5 * span
-    } else {
-        3.0 * 2f32.powi(-8) * span
-    }
+/// How far the shader's interpolation may stray from the CPU's, where neighbouring voxels
+/// differ by up to `span`: both run the same seven lerps a + (b - a) t in f32 on the same
+/// texels (the texture stores f32 exactly), so only the shader compiler's fusing of a multiply
+/// and an add (one rounding fewer per lerp) differs, a few ulps of the span. This holds on any
+/// hardware because no sampler's low-precision weights are involved.
+fn arithmetic_tolerance(span: f32) -> f32 {
+    1e-5 * span
 }
 
-/// Every voxel centre, where the filter's weights are 0 and 1 up to coordinate rounding (about
-/// 1e-7, so samples stay within 1e-5 of the span of the texel values on any hardware).
+/// Every voxel centre, where the weights are exactly 0 and 1: samples are the voxel values.
 fn voxel_centres(dims: [usize; 3]) -> Vec<Vec3> {
     let [nx, ny, nz] = dims;
     (0..nx * ny * nz)
@@ -167,13 +162,8 @@ fn voxel_centres(dims: [usize; 3]) -> Vec<Vec3> {
         .collect()
 }
 
-/// Largest |GPU sample - stored(voxel value)| over the voxel centres.
-fn max_centre_error(
-    ctx: &GpuContext,
-    volume: &Volume,
-    tex: &VolumeTexture,
-    stored: impl Fn(f32) -> f32,
-) -> f32 {
+/// Largest |GPU sample - voxel value| over the voxel centres.
+fn max_centre_error(ctx: &GpuContext, volume: &Volume, tex: &VolumeTexture) -> f32 {
     let centres = voxel_centres(volume.dims());
     let gpu = gpu_samples(ctx, volume, tex, &centres);
     centres
@@ -181,7 +171,7 @@ fn max_centre_error(
         .zip(gpu)
         .map(|(c, (value, _))| {
             let expected = volume.at(c.x as usize, c.y as usize, c.z as usize);
-            (value - stored(expected)).abs()
+            (value - expected).abs()
         })
         .fold(0.0, f32::max)
 }
@@ -189,31 +179,19 @@ fn max_centre_error(
 /// Value range of `random_volume`, the largest difference between neighbouring voxels.
 const RANDOM_SPAN: f32 = 8.0;
 
-/// Tolerance at voxel centres (see `voxel_centres`).
-const CENTRE_TOLERANCE: f32 = 1e-5 * RANDOM_SPAN;
-
 #[test]
-fn r32float_texture_matches_cpu_trilinear_and_gradient() {
+fn texture_sampling_matches_cpu_trilinear_and_gradient() {
     let ctx = ctx();
-    assert!(
-        ctx.float32_filterable,
-        "{} lacks FLOAT32_FILTERABLE",
-        ctx.describe()
-    );
     let volume = random_volume();
     let tex = VolumeTexture::upload(&ctx, &volume).unwrap();
-    assert_eq!(tex.format, VolumeFormat::R32Float);
     // f32 storage is exact: voxel centres return the voxel values.
-    let centre_err = max_centre_error(&ctx, &volume, &tex, |v| v);
-    assert!(
-        centre_err <= CENTRE_TOLERANCE,
-        "voxel centres differ by {centre_err}"
-    );
+    let centre_err = max_centre_error(&ctx, &volume, &tex);
+    assert!(centre_err == 0.0, "voxel centres differ by {centre_err}");
     let points = sample_points(volume.dims(), 4000);
     let gpu = gpu_samples(&ctx, &volume, &tex, &points);
     let (value_err, gradient_err) = max_errors(&volume, &points, &gpu);
-    // Only the filter's arithmetic differs from the CPU.
-    let tolerance = filter_tolerance(&ctx, RANDOM_SPAN);
+    let tolerance = arithmetic_tolerance(RANDOM_SPAN);
+    println!("value error {value_err:e}, gradient error {gradient_err}");
     assert!(
         value_err <= tolerance,
         "value error {value_err} > {tolerance}"
@@ -225,36 +203,24 @@ fn r32float_texture_matches_cpu_trilinear_and_gradient() {
     );
 }
 
+/// Points a sampler with 8-bit weights gets wrong by about 2^-9 of the span: fractions that
+/// are not multiples of 1/256. Sampled in the shader, they are exact.
 #[test]
-fn r16float_texture_matches_within_half_precision() {
+fn fine_fractions_between_voxels_are_not_quantised() {
     let ctx = ctx();
-    let volume = random_volume();
-    let tex = VolumeTexture::upload_as(&ctx, &volume, VolumeFormat::R16Float).unwrap();
-    assert_eq!(tex.format, VolumeFormat::R16Float);
-    // The forced format really stored halves: voxel centres return the values rounded to f16,
-    // which differ from the f32 values by up to half an f16 ulp (2^-9 for values in [4, 5)).
-    let to_half = |v: f32| half::f16::from_f32(v).to_f32();
-    let centre_err = max_centre_error(&ctx, &volume, &tex, to_half);
-    assert!(
-        centre_err <= CENTRE_TOLERANCE,
-        "voxel centres differ from f16 by {centre_err}"
-    );
-    assert!(max_centre_error(&ctx, &volume, &tex, |v| v) > 1e-3);
-    let points = sample_points(volume.dims(), 4000);
+    // Voxels 0 and 1 along x, the rest constant: the sample is the fraction itself.
+    let volume = Volume::from_fn([2, 2, 2], Vec3::ONE, Vec3::ZERO, |p| p.x).unwrap();
+    let tex = VolumeTexture::upload(&ctx, &volume).unwrap();
+    let points: Vec<Vec3> = (0..200)
+        .map(|i| Vec3::new((i as f32 + 0.5) / 1000.0, 0.5, 0.5))
+        .collect();
     let gpu = gpu_samples(&ctx, &volume, &tex, &points);
-    let (value_err, gradient_err) = max_errors(&volume, &points, &gpu);
-    // Rounding to f16 moves each voxel by at most 2^-11 of its magnitude (|v| <= 5 here), and
-    // trilinear weights are convex, so a sample moves by at most as much; plus the filter's own.
-    let tolerance = 5.0 * 2f32.powi(-11) + filter_tolerance(&ctx, RANDOM_SPAN);
-    assert!(
-        value_err <= tolerance,
-        "value error {value_err} > {tolerance}"
-    );
-    let gradient_tol = gradient_tolerance(&volume, tolerance);
-    assert!(
-        gradient_err.cmple(gradient_tol).all(),
-        "gradient error {gradient_err} > {gradient_tol}"
-    );
+    let worst = points
+        .iter()
+        .zip(&gpu)
+        .map(|(p, (value, _))| (value - p.x).abs())
+        .fold(0.0f32, f32::max);
+    assert!(worst <= arithmetic_tolerance(1.0), "worst {worst}");
 }
 
 #[test]
@@ -286,7 +252,7 @@ fn volume_beyond_one_storage_binding_uploads_and_samples() {
     let gpu = gpu_samples(&ctx, &volume, &tex, &points);
     let (value_err, gradient_err) = max_errors(&volume, &points, &gpu);
     // Values reach 337, where one f32 ulp is 3e-5, and neighbours differ by up to 1 (along z).
-    let tolerance = 1e-5 * 337.0 + filter_tolerance(&ctx, 1.0);
+    let tolerance = 1e-5 * 337.0 + arithmetic_tolerance(1.0);
     assert!(
         value_err <= tolerance,
         "value error {value_err} > {tolerance}"
@@ -298,7 +264,7 @@ fn volume_beyond_one_storage_binding_uploads_and_samples() {
 }
 
 #[test]
-fn oversized_or_unrepresentable_volumes_are_clear_errors() {
+fn oversized_volumes_are_clear_errors() {
     let ctx = ctx();
     let max = ctx.limits.max_texture_dimension_3d as usize;
     let long = Volume::new([max + 1, 1, 1], Vec3::ONE, Vec3::ZERO, vec![0.0; max + 1]).unwrap();
@@ -307,9 +273,6 @@ fn oversized_or_unrepresentable_volumes_are_clear_errors() {
         err.contains("3D texture limit") && err.contains(&format!("{}x1x1", max + 1)),
         "{err}"
     );
-    let hot = Volume::new([2, 2, 2], Vec3::ONE, Vec3::ZERO, vec![1e6; 8]).unwrap();
-    let err = VolumeTexture::upload_as(&ctx, &hot, VolumeFormat::R16Float).unwrap_err();
-    assert!(err.to_string().contains("float16"), "{err}");
 }
 
 #[test]

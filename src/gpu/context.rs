@@ -7,7 +7,7 @@ use crate::error::{Error, Result};
 use super::shader::PipelineCache;
 
 /// Backends Occlux asks for. GL is left out on purpose: its EGL start costs seconds, and on
-/// llvmpipe its 3D storage writes are wrong beyond slice 0 and r32float is not filterable.
+/// llvmpipe its 3D storage writes are wrong beyond slice 0.
 const BACKENDS: wgpu::Backends = wgpu::Backends::VULKAN
     .union(wgpu::Backends::METAL)
     .union(wgpu::Backends::DX12);
@@ -22,16 +22,14 @@ pub struct GpuContext {
     pub device: wgpu::Device,
     pub queue: wgpu::Queue,
     pub adapter_info: wgpu::AdapterInfo,
-    /// Whether r32float textures can be sampled with a linear filter (else volumes use r16float).
-    pub float32_filterable: bool,
     /// The adapter's own limits, requested in full (large 3D textures and storage bindings).
     pub limits: wgpu::Limits,
     pub(super) pipelines: PipelineCache,
 }
 
 impl GpuContext {
-    /// Opens the highest-performance Vulkan/Metal/DX12 adapter with its full limits, and
-    /// FLOAT32_FILTERABLE when it has it.
+    /// Opens the highest-performance Vulkan/Metal/DX12 adapter with its full limits. No
+    /// optional feature is needed: kernels interpolate volumes themselves (see `texture`).
     pub fn open() -> Result<Self> {
         pollster::block_on(Self::open_async())
     }
@@ -50,20 +48,12 @@ impl GpuContext {
             .map_err(|e| {
                 Error::Gpu(format!("no Vulkan/Metal/DX12 adapter ({e}): {DRIVER_HINT}"))
             })?;
-        let float32_filterable = adapter
-            .features()
-            .contains(wgpu::Features::FLOAT32_FILTERABLE);
-        let required_features = if float32_filterable {
-            wgpu::Features::FLOAT32_FILTERABLE
-        } else {
-            wgpu::Features::empty()
-        };
         let limits = adapter.limits();
         let adapter_info = adapter.get_info();
         let (device, queue) = adapter
             .request_device(&wgpu::DeviceDescriptor {
                 label: Some("occlux"),
-                required_features,
+                required_features: wgpu::Features::empty(),
                 required_limits: limits.clone(),
                 experimental_features: wgpu::ExperimentalFeatures::disabled(),
                 memory_hints: wgpu::MemoryHints::Performance,
@@ -80,7 +70,6 @@ impl GpuContext {
             device,
             queue,
             adapter_info,
-            float32_filterable,
             limits,
             pipelines: PipelineCache::default(),
         })

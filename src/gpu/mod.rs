@@ -2,7 +2,7 @@
 //!
 //! - [`context`]: opening a device ([`GpuContext`]), `--device auto|gpu|cpu` ([`DeviceChoice`],
 //!   [`Compute`]), one shared context per process ([`shared_context`]).
-//! - [`texture`]: a `Volume` as a filterable 3D texture ([`VolumeTexture`]).
+//! - [`texture`]: a `Volume` as an r32float 3D texture ([`VolumeTexture`]).
 //! - [`shader`]: WGSL from shaders/ (or a caller's text including them) with `//#include`,
 //!   cached compute pipelines, bind groups, dispatch.
 //! - [`buffer`]: storage/uniform buffers from plain data, readback.
@@ -19,4 +19,4 @@ pub mod texture;
 pub(crate) mod view;
 
 pub use context::{shared_context, Compute, DeviceChoice, GpuContext};
-pub use texture::{VolumeFormat, VolumeTexture};
+pub use texture::VolumeTexture;

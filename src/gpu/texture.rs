@@ -1,12 +1,10 @@
-//! A `Volume` as a 3D texture with a linear, clamp-to-edge sampler.
+//! A `Volume` as an r32float 3D texture: texel (i, j, k) holds voxel (i, j, k)'s value exactly.
 //!
-//! Voxel (i, j, k)'s centre sits at texture coordinate ((i + 0.5) / nx, (j + 0.5) / ny,
-//! (k + 0.5) / nz), so the sampler's trilinear filter at continuous index c reproduces
-//! `Volume::sample_index(c)`, clamping included (see `sample_volume` in shaders/common.wgsl).
-//! A texture, not a storage buffer, because volumes outgrow one storage binding (128 MiB on
-//! lavapipe) long before they outgrow a 3D texture.
-
-use half::slice::HalfFloatSliceExt;
+//! Kernels interpolate it themselves (`sample_volume` in shaders/common.wgsl loads the eight
+//! texels and reproduces `Volume::sample_index` in f32), so no sampler is bound: hardware
+//! filters weigh texels in low precision, and r32float needs FLOAT32_FILTERABLE to be filtered
+//! at all. A texture, not a storage buffer, because volumes outgrow one storage binding
+//! (128 MiB on lavapipe) long before they outgrow a 3D texture.
 
 use crate::error::{Error, Result};
 use crate::volume::Volume;
@@ -17,75 +15,20 @@ use super::context::GpuContext;
 /// copies wgpu makes stay small however large the volume is.
 const SLAB_BYTES: usize = 32 << 20;
 
-/// How voxel values are stored on the GPU.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum VolumeFormat {
-    /// Exact f32 values; needs the FLOAT32_FILTERABLE feature to be sampled linearly.
-    R32Float,
-    /// Half floats (11-bit significand, |value| up to 65504); always filterable.
-    R16Float,
-}
+/// Bytes per voxel of the texture (r32float).
+const BYTES_PER_VOXEL: usize = 4;
 
-impl VolumeFormat {
-    /// r32float when the context can filter it, else r16float.
-    pub fn preferred(ctx: &GpuContext) -> Self {
-        if ctx.float32_filterable {
-            VolumeFormat::R32Float
-        } else {
-            VolumeFormat::R16Float
-        }
-    }
-
-    /// "r32float" or "r16float", as WGSL names the formats.
-    pub fn name(self) -> &'static str {
-        match self {
-            VolumeFormat::R32Float => "r32float",
-            VolumeFormat::R16Float => "r16float",
-        }
-    }
-
-    fn texture_format(self) -> wgpu::TextureFormat {
-        match self {
-            VolumeFormat::R32Float => wgpu::TextureFormat::R32Float,
-            VolumeFormat::R16Float => wgpu::TextureFormat::R16Float,
-        }
-    }
-
-    fn bytes_per_voxel(self) -> usize {
-        match self {
-            VolumeFormat::R32Float => 4,
-            VolumeFormat::R16Float => 2,
-        }
-    }
-}
-
-/// A volume uploaded to the GPU: bind `view` as `texture_3d<f32>` and `sampler` as `sampler`.
+/// A volume uploaded to the GPU: bind `view` as `texture_3d<f32>`.
 #[derive(Debug)]
 pub struct VolumeTexture {
     pub texture: wgpu::Texture,
     pub view: wgpu::TextureView,
-    pub sampler: wgpu::Sampler,
-    pub format: VolumeFormat,
     pub dims: [u32; 3],
 }
 
 impl VolumeTexture {
-    /// Uploads `volume` in the context's preferred format.
+    /// Uploads `volume`; waits until the upload is done.
     pub fn upload(ctx: &GpuContext, volume: &Volume) -> Result<Self> {
-        Self::upload_as(ctx, volume, VolumeFormat::preferred(ctx))
-    }
-
-    /// Uploads `volume` stored as `format`; waits until the upload is done.
-    pub fn upload_as(ctx: &GpuContext, volume: &Volume, format: VolumeFormat) -> Result<Self> {
-        if format == VolumeFormat::R32Float && !ctx.float32_filterable {
-            return Err(Error::Gpu(format!(
-                "{} cannot filter r32float textures: upload as r16float",
-                ctx.describe()
-            )));
-        }
-        if format == VolumeFormat::R16Float {
-            check_half_range(volume)?;
-        }
         let dims = texture_dims(ctx, volume.dims())?;
         let texture = ctx.checked("volume texture", || {
             ctx.device.create_texture(&wgpu::TextureDescriptor {
@@ -94,28 +37,16 @@ impl VolumeTexture {
                 mip_level_count: 1,
                 sample_count: 1,
                 dimension: wgpu::TextureDimension::D3,
-                format: format.texture_format(),
+                format: wgpu::TextureFormat::R32Float,
                 usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
                 view_formats: &[],
             })
         })?;
-        write_slabs(ctx, &texture, volume.values(), dims, format)?;
+        write_slabs(ctx, &texture, volume.values(), dims)?;
         let view = texture.create_view(&Default::default());
-        let sampler = ctx.device.create_sampler(&wgpu::SamplerDescriptor {
-            label: Some("volume trilinear"),
-            address_mode_u: wgpu::AddressMode::ClampToEdge,
-            address_mode_v: wgpu::AddressMode::ClampToEdge,
-            address_mode_w: wgpu::AddressMode::ClampToEdge,
-            mag_filter: wgpu::FilterMode::Linear,
-            min_filter: wgpu::FilterMode::Linear,
-            mipmap_filter: wgpu::MipmapFilterMode::Nearest,
-            ..Default::default()
-        });
         Ok(Self {
             texture,
             view,
-            sampler,
-            format,
             dims,
         })
     }
@@ -137,19 +68,6 @@ fn texture_dims(ctx: &GpuContext, dims: [usize; 3]) -> Result<[u32; 3]> {
     Ok(dims.map(|n| n as u32))
 }
 
-/// Half floats overflow to infinity beyond 65504: refuse rather than upload infinities.
-fn check_half_range(volume: &Volume) -> Result<()> {
-    let (lo, hi) = volume.value_range();
-    let limit = half::f16::MAX.to_f32();
-    if lo < -limit || hi > limit {
-        return Err(Error::Gpu(format!(
-            "values span [{lo}, {hi}], beyond float16's +-{limit}: this adapter cannot filter \
-             float32 textures, so rescale the volume or use --device cpu"
-        )));
-    }
-    Ok(())
-}
-
 fn extent([width, height, depth]: [u32; 3]) -> wgpu::Extent3d {
     wgpu::Extent3d {
         width,
@@ -165,20 +83,11 @@ fn write_slabs(
     texture: &wgpu::Texture,
     values: &[f32],
     dims: [u32; 3],
-    format: VolumeFormat,
 ) -> Result<()> {
     let slice_len = dims[0] as usize * dims[1] as usize;
-    let slab_depth = (SLAB_BYTES / (slice_len * format.bytes_per_voxel())).max(1);
-    let mut halves = Vec::new();
+    let slab_depth = (SLAB_BYTES / (slice_len * BYTES_PER_VOXEL)).max(1);
     for (slab, chunk) in values.chunks(slab_depth * slice_len).enumerate() {
-        let bytes: &[u8] = match format {
-            VolumeFormat::R32Float => bytemuck::cast_slice(chunk),
-            VolumeFormat::R16Float => {
-                halves.resize(chunk.len(), half::f16::ZERO);
-                halves.convert_from_f32_slice(chunk);
-                bytemuck::cast_slice(&halves)
-            }
-        };
+        let bytes: &[u8] = bytemuck::cast_slice(chunk);
         let z = (slab * slab_depth) as u32;
         let depth = (chunk.len() / slice_len) as u32;
         ctx.checked("volume upload", || {
@@ -192,7 +101,7 @@ fn write_slabs(
                 bytes,
                 wgpu::TexelCopyBufferLayout {
                     offset: 0,
-                    bytes_per_row: Some(dims[0] * format.bytes_per_voxel() as u32),
+                    bytes_per_row: Some(dims[0] * BYTES_PER_VOXEL as u32),
                     rows_per_image: Some(dims[1]),
                 },
                 extent([dims[0], dims[1], depth]),

@@ -14,10 +14,9 @@ struct Params {
 
 @group(0) @binding(0) var<uniform> params: Params;
 @group(0) @binding(1) var volume: texture_3d<f32>;
-@group(0) @binding(2) var volume_sampler: sampler;
-@group(0) @binding(3) var<storage, read> points: array<vec4<f32>>;
+@group(0) @binding(2) var<storage, read> points: array<vec4<f32>>;
 // xyz: gradient, w: value.
-@group(0) @binding(4) var<storage, read_write> results: array<vec4<f32>>;
+@group(0) @binding(3) var<storage, read_write> results: array<vec4<f32>>;
 
 @compute @workgroup_size(64)
 fn main(@builtin(global_invocation_id) id: vec3<u32>) {
@@ -27,7 +26,7 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
     }
     let c = points[i].xyz;
     let dims = vec3<f32>(params.dims);
-    let value = sample_volume(volume, volume_sampler, c, dims);
-    let gradient = volume_gradient(volume, volume_sampler, c, dims, params.spacing);
+    let value = sample_volume(volume, c, dims);
+    let gradient = volume_gradient(volume, c, dims, params.spacing);
     results[i] = vec4<f32>(gradient, value);
 }

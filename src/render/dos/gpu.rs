@@ -12,10 +12,11 @@ use crate::gpu::lut_shape::LutShapeUniform;
 use crate::gpu::view::ViewUniform;
 use crate::gpu::{buffer, shader, GpuContext};
 use crate::progress::Progress;
+use crate::render::occupancy::CELL;
 use crate::render::raycast::gpu::GpuVolume;
 use crate::render::{RenderImage, BACKGROUND_DEPTH};
 use bytemuck::{Pod, Zeroable};
-use glam::{Vec2, Vec3};
+use glam::{UVec3, Vec2, Vec3};
 use wgpu::util::DeviceExt;
 
 const SHADER: &str = "dos.wgsl";
@@ -38,6 +39,8 @@ struct Params {
     planes: u32,
     self_occlusion: u32,
     _pad: [u32; 2],
+    cells: UVec3,
+    cell_voxels: u32,
     clip_planes: [GpuClipPlane; MAX_CLIP_PLANES],
 }
 
@@ -102,7 +105,8 @@ pub fn render_uploaded(
         .collect();
     let samples = buffer::storage_buffer(ctx, "cone samples", &samples)?;
     let ring_lengths = buffer::storage_buffer(ctx, "ring lengths", &setup.ring_lengths)?;
-    let uniform = buffer::uniform_buffer(ctx, "dos params", &params(input, &setup))?;
+    let (cells, occupancy) = uploaded.occupancy();
+    let uniform = buffer::uniform_buffer(ctx, "dos params", &params(input, &setup, cells))?;
     // Slab 0 reads nothing (V_0 = 1), so the buffers start zeroed.
     let occlusion = [
         buffer::output_buffer::<f32>(ctx, "occlusion a", setup.planes() * pixels)?,
@@ -154,7 +158,6 @@ pub fn render_uploaded(
                     &[
                         uniform.as_entire_binding(),
                         wgpu::BindingResource::TextureView(&texture.view),
-                        wgpu::BindingResource::Sampler(&texture.sampler),
                         uploaded.lut_buffer().as_entire_binding(),
                         samples.as_entire_binding(),
                         occlusion[g].as_entire_binding(),
@@ -167,6 +170,7 @@ pub fn render_uploaded(
                             size: wgpu::BufferSize::new(std::mem::size_of::<Slab>() as u64),
                         }),
                         ring_lengths.as_entire_binding(),
+                        occupancy.as_entire_binding(),
                     ],
                 )
             })
@@ -193,7 +197,7 @@ pub fn render_uploaded(
     Ok(finish(cam, input.lighting.background, &radiance, &depth))
 }
 
-fn params(input: &DosInput, setup: &DosSetup) -> Params {
+fn params(input: &DosInput, setup: &DosSetup, cells: [usize; 3]) -> Params {
     let mut clip_planes = [GpuClipPlane::zeroed(); MAX_CLIP_PLANES];
     for (gpu, plane) in clip_planes.iter_mut().zip(&input.params.clip_planes) {
         gpu.point = plane.point;
@@ -211,6 +215,8 @@ fn params(input: &DosInput, setup: &DosSetup) -> Params {
         planes: setup.planes() as u32,
         self_occlusion: u32::from(input.params.self_occlusion),
         _pad: [0; 2],
+        cells: UVec3::new(cells[0] as u32, cells[1] as u32, cells[2] as u32),
+        cell_voxels: CELL as u32,
         clip_planes,
     }
 }
@@ -237,6 +243,8 @@ mod tests {
                 lock_step_rays,
                 planes,
                 self_occlusion,
+                cells,
+                cell_voxels,
                 clip_planes
             ]
         );

@@ -545,7 +545,6 @@ impl Shared<'_> {
             &[
                 (0, uniform.as_entire_binding()),
                 (1, wgpu::BindingResource::TextureView(&texture.view)),
-                (2, wgpu::BindingResource::Sampler(&texture.sampler)),
                 (3, self.volume.lut_buffer().as_entire_binding()),
                 (4, self.occupancy.as_entire_binding()),
                 (9, self.lists.chords.as_entire_binding()),
@@ -577,7 +576,6 @@ impl Shared<'_> {
             &[
                 (0, uniform.as_entire_binding()),
                 (1, wgpu::BindingResource::TextureView(&texture.view)),
-                (2, wgpu::BindingResource::Sampler(&texture.sampler)),
                 (3, self.volume.lut_buffer().as_entire_binding()),
                 (4, self.occupancy.as_entire_binding()),
                 (5, wgpu::BindingResource::Buffer(pixels)),

@@ -99,7 +99,7 @@ impl<'a> GpuVolume<'a> {
 }
 
 impl GpuVolume<'_> {
-    /// The volume as a 3D texture with its linear sampler.
+    /// The volume as a 3D texture.
     pub(crate) fn texture(&self) -> &VolumeTexture {
         &self.texture
     }
@@ -166,7 +166,6 @@ pub fn render_uploaded(
             &[
                 uniform.as_entire_binding(),
                 wgpu::BindingResource::TextureView(&uploaded.texture.view),
-                wgpu::BindingResource::Sampler(&uploaded.texture.sampler),
                 uploaded.lut_buffer.as_entire_binding(),
                 rgba.as_entire_binding(),
                 depth.as_entire_binding(),
