@@ -628,3 +628,70 @@ fn wider_cones_and_finer_grids_see_more_occluders() {
     assert!(by_theta[0] > by_theta[1] + 0.02 && by_theta[1] > by_theta[2] + 0.1);
     assert!(by_grid[0] > by_grid[1] + 0.01 && by_grid[1] >= by_grid[2] - 1e-3);
 }
+
+/// Material outside the view still occludes what is in it (the occlusion buffers' guard band):
+/// a view cropped at x = 0 of a floor shaded by a wall at x > 0.125 shows the wall's occlusion
+/// as the wide view of both does. Without the band the cropped view's cone samples beyond its
+/// edge read its edge pixels, and the wall's occlusion was lost (the cropped view equalled the
+/// view without the wall).
+#[test]
+fn occluders_outside_the_view_still_occlude() {
+    // x in [-1, 0.5], y in [-0.25, 0.25], z in [-0.5, 0.5]: a floor below z = -0.25 and, with
+    // `wall`, a block at x > 0.125 above z = 0.
+    let volume = |wall: bool| {
+        Volume::from_fn(
+            [24, 8, 16],
+            Vec3::splat(0.0625),
+            Vec3::new(-1.0, -0.25, -0.5) + 0.03125,
+            move |p| f32::from(p.z < -0.25 || (wall && p.x > 0.125 && p.z > 0.0)),
+        )
+        .unwrap()
+    };
+    let camera = |x: f32, width: u32, scale: f32| {
+        Camera::look_at(
+            Vec3::new(x, 0.0, 3.0),
+            Vec3::new(x, 0.0, 0.0),
+            Vec3::Y,
+            Projection::Orthographic { scale },
+            width,
+            16,
+        )
+        .unwrap()
+    };
+    // The same pixel pitch, 1/16: the wide view spans x in [-1, 1], the cropped one [-1, 0].
+    let (wide, cropped) = (camera(0.0, 32, 2.0), camera(-0.5, 16, 1.0));
+    let params = DosParams {
+        theta_deg: 70.0,
+        ..DosParams::default()
+    };
+    let red = |volume: &Volume, camera: &Camera| -> Vec<f32> {
+        let lut = common::layers::linear_extinction(volume, 20.0);
+        let img = render(volume, &lut, camera, &params);
+        img.rgba.iter().map(|p| p[0]).collect()
+    };
+    let (walled, open) = (volume(true), volume(false));
+    let (wide_walled, wide_open) = (red(&walled, &wide), red(&open, &wide));
+    let cropped_walled = red(&walled, &cropped);
+    // Cropped column i is wide column i + offset (the image's x runs along the camera's right).
+    let offset = if wide.right.x > 0.0 { 0 } else { 16 };
+    // The four columns of the cropped view next to its cut, over the volume's rows.
+    let columns: Vec<usize> = if offset == 0 {
+        (12..16).collect()
+    } else {
+        (0..4).collect()
+    };
+    let (mut shade, mut miss) = (0.0f32, 0.0f32);
+    for j in 4..12 {
+        for &i in &columns {
+            let w = j * 32 + i + offset;
+            shade += wide_open[w] - wide_walled[w];
+            miss += (cropped_walled[j * 16 + i] - wide_walled[w]).abs();
+        }
+    }
+    println!("the wall's occlusion next to the cut: {shade:.4}; cropped view misses {miss:.4}");
+    assert!(
+        shade > 0.05 * 32.0,
+        "the wall should shade the floor there: {shade}"
+    );
+    assert!(miss < 0.1 * shade, "cropped {miss} of {shade}");
+}

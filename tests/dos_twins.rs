@@ -117,6 +117,19 @@ fn orthographic_and_inside_cameras_agree() {
     let ortho = orthographic();
     compare(&volume, &classification, &ortho, &params);
     let inside = inside();
+    // From inside, the box reaches behind the image plane: the buffers take the widest band.
+    let lut = classification.bake(&volume);
+    let band = DosInput {
+        volume: &volume,
+        lut: &lut,
+        camera: &inside,
+        lighting: &lighting(),
+        params: &params,
+    }
+    .setup()
+    .unwrap()
+    .band;
+    assert_eq!(band, inside.width.max(inside.height) / 2);
     compare(&volume, &classification, &inside, &params);
     let rays = DosParams {
         formulation: Formulation::Rays,

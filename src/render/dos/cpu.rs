@@ -46,7 +46,8 @@ fn render_skipping(
     progress: &dyn Progress,
 ) -> Result<RenderImage> {
     let setup = input.setup()?;
-    let cam = input.camera;
+    // The buffers' camera: the view and its guard band.
+    let cam = &setup.camera;
     let (width, height) = (cam.width as usize, cam.height as usize);
     let (lo, hi) = input.volume.bounds();
     let lock_step = input.params.formulation == Formulation::Rays;
@@ -119,7 +120,7 @@ fn render_skipping(
         .map(|e| e.radiance.extend(e.transmittance).to_array())
         .collect();
     let depth: Vec<[f32; 2]> = eye.iter().map(|e| [e.depth, e.occlusion]).collect();
-    Ok(finish(cam, input.lighting.background, &radiance, &depth))
+    Ok(finish(input, setup.band, &radiance, &depth))
 }
 
 /// One cone sample's read of the previous buffer, the same for every pixel of a slab: the

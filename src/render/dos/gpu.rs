@@ -89,7 +89,8 @@ pub fn render_uploaded(
     progress: &dyn Progress,
 ) -> Result<RenderImage> {
     let setup = input.setup()?;
-    let cam = input.camera;
+    // The buffers' camera: the view and its guard band.
+    let cam = &setup.camera;
     let pixels = cam.width as usize * cam.height as usize;
     let pipeline = shader::compute_pipeline(ctx, SHADER, "main")?;
     let texture = uploaded.texture();
@@ -194,7 +195,7 @@ pub fn render_uploaded(
     }
     let radiance: Vec<[f32; 4]> = buffer::read_buffer(ctx, &eye)?;
     let depth: Vec<[f32; 2]> = buffer::read_buffer(ctx, &eye_depth)?;
-    Ok(finish(cam, input.lighting.background, &radiance, &depth))
+    Ok(finish(input, setup.band, &radiance, &depth))
 }
 
 fn params(input: &DosInput, setup: &DosSetup, cells: [usize; 3]) -> Params {
@@ -204,7 +205,7 @@ fn params(input: &DosInput, setup: &DosSetup, cells: [usize; 3]) -> Params {
         gpu.normal = plane.normal;
     }
     Params {
-        view: ViewUniform::new(input.camera, input.volume),
+        view: ViewUniform::new(&setup.camera, input.volume),
         lut: LutShapeUniform::new(input.lut),
         ambient: setup.ambient,
         slice_distance: setup.slice_distance,
