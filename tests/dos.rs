@@ -11,7 +11,7 @@
 mod common;
 use common::layers::{assert_continuous, linear_extinction, premultiplied, soft_sphere_scene};
 
-use glam::{Vec2, Vec3};
+use glam::Vec3;
 use occlux::camera::{Camera, Projection};
 use occlux::classify::{
     presets, Classification, ControlPoint, Lut, TransferFunction, TransferFunction1D, ValueUnits,
@@ -20,7 +20,7 @@ use occlux::classify::{
 use occlux::lights::{Light, Lighting};
 use occlux::progress::{NoProgress, Progress};
 use occlux::render::dos::{
-    cpu, disc_grid, ClipPlane, ConeDistance, DosInput, DosParams, Formulation,
+    cpu, disc_grid, ClipPlane, ConeDistance, ConeSampling, DosInput, DosParams, Formulation,
 };
 use occlux::render::{RenderImage, BACKGROUND_DEPTH};
 use occlux::volume::{phantom, Volume};
@@ -96,6 +96,37 @@ fn slab_closed_form(sigma: f32, params: &DosParams) -> f32 {
     (lit + a.powi(n) * BACKGROUND as f64) as f32
 }
 
+/// Each cone sample's path length through a slab of depth d, from the sample's radius rho on
+/// the unit disc (the n x n grid): with area sampling it lands rho d tan(theta) from the pixel,
+/// a path of sqrt(d^2 + r^2); with solid-angle sampling it looks along cos(phi) =
+/// 1 - rho^2 (1 - cos(theta)), a path of d / cos(phi).
+fn sample_lengths(params: &DosParams) -> Vec<f64> {
+    let d = params.slice_distance.unwrap() as f64;
+    let theta = (params.theta_deg as f64).to_radians();
+    disc_grid(params.grid)
+        .iter()
+        .map(|q| {
+            let rho = q.length() as f64;
+            match params.sampling {
+                ConeSampling::Area => (d * d + (rho * d * theta.tan()).powi(2)).sqrt(),
+                ConeSampling::SolidAngle => d / (1.0 - rho * rho * (1.0 - theta.cos())),
+            }
+        })
+        .collect()
+}
+
+/// The cone's mean attenuation per slab, m (module docs), for extinction `sigma`.
+fn cone_attenuation(sigma: f64, params: &DosParams) -> f64 {
+    let d = params.slice_distance.unwrap() as f64;
+    match params.distance {
+        ConeDistance::Approximate => (-sigma * d).exp(),
+        ConeDistance::Exact => {
+            let lengths = sample_lengths(params);
+            lengths.iter().map(|l| (-sigma * l).exp()).sum::<f64>() / lengths.len() as f64
+        }
+    }
+}
+
 /// The occlusion layer's P for the cube's depth of 2: the same sum without L_a albedo,
 /// `own (1 - a) sum_{k<N} (a m)^k`, slab k weighted by T_k (1 - a) and lit by own V_k.
 fn slab_occlusion_closed_form(sigma: f32, params: &DosParams) -> f64 {
@@ -103,20 +134,7 @@ fn slab_occlusion_closed_form(sigma: f32, params: &DosParams) -> f64 {
     let n = (2.0 / d).round() as i32;
     let sigma = sigma as f64;
     let a = (-sigma * d).exp();
-    let radius = d * (params.theta_deg as f64).to_radians().tan();
-    let q = disc_grid(params.grid);
-    let m = match params.distance {
-        ConeDistance::Approximate => a,
-        ConeDistance::Exact => {
-            q.iter()
-                .map(|q: &Vec2| {
-                    let r = q.length() as f64 * radius;
-                    (-sigma * (d * d + r * r).sqrt()).exp()
-                })
-                .sum::<f64>()
-                / q.len() as f64
-        }
-    };
+    let m = cone_attenuation(sigma, params);
     let own = if params.self_occlusion { a.sqrt() } else { 1.0 };
     own * (1.0 - a) * (1.0 - (a * m).powi(n)) / (1.0 - a * m)
 }
@@ -155,21 +173,27 @@ fn homogeneous_cube_matches_the_slice_recursion_closed_form() {
     let lut = homogeneous(&volume, sigma);
     let camera = top_camera(12);
     let (mut worst, mut worst_p) = (0.0f32, 0.0f32);
-    for (theta_deg, grid, distance, self_occlusion) in [
-        (0.0, 1, ConeDistance::Exact, false),
-        (0.0, 5, ConeDistance::Exact, false),
-        (30.0, 5, ConeDistance::Exact, false),
-        (60.0, 13, ConeDistance::Exact, false),
-        (60.0, 5, ConeDistance::Approximate, false),
-        (85.0, 2, ConeDistance::Exact, false),
-        (0.0, 1, ConeDistance::Exact, true),
-        (60.0, 5, ConeDistance::Exact, true),
+    let (solid, area) = (ConeSampling::SolidAngle, ConeSampling::Area);
+    for (theta_deg, grid, distance, sampling, self_occlusion) in [
+        (0.0, 1, ConeDistance::Exact, solid, false),
+        (0.0, 5, ConeDistance::Exact, solid, false),
+        (30.0, 5, ConeDistance::Exact, solid, false),
+        (60.0, 13, ConeDistance::Exact, solid, false),
+        (60.0, 5, ConeDistance::Approximate, solid, false),
+        (85.0, 2, ConeDistance::Exact, solid, false),
+        (89.99, 5, ConeDistance::Exact, solid, false),
+        (0.0, 1, ConeDistance::Exact, solid, true),
+        (60.0, 5, ConeDistance::Exact, solid, true),
+        (30.0, 5, ConeDistance::Exact, area, false),
+        (60.0, 13, ConeDistance::Exact, area, false),
+        (85.0, 2, ConeDistance::Exact, area, false),
     ] {
         let params = DosParams {
             theta_deg,
             grid,
             slice_distance: Some(0.125),
             distance,
+            sampling,
             self_occlusion,
             ..DosParams::default()
         };
@@ -313,6 +337,7 @@ fn clipped_material_neither_shows_nor_occludes() {
         grid: 5,
         slice_distance: Some(0.125),
         distance: ConeDistance::Exact,
+        sampling: ConeSampling::SolidAngle,
         formulation: Formulation::Slices,
         self_occlusion: false,
         clip_planes: vec![ClipPlane {
@@ -325,16 +350,7 @@ fn clipped_material_neither_shows_nor_occludes() {
     // with the extinction halved in the exponent: compute it directly instead.
     let d = 0.125f64;
     let a = (-(sigma as f64) * d).exp();
-    let radius = d * 40f64.to_radians().tan();
-    let q = disc_grid(5);
-    let m = q
-        .iter()
-        .map(|q| {
-            let r = q.length() as f64 * radius;
-            (-(sigma as f64) * (d * d + r * r).sqrt()).exp()
-        })
-        .sum::<f64>()
-        / q.len() as f64;
+    let m = cone_attenuation(sigma as f64, &params);
     let n = 8;
     let want = ((AMBIENT * ALBEDO) as f64 * (1.0 - a) * (1.0 - (a * m).powi(n)) / (1.0 - a * m)
         + a.powi(n) * BACKGROUND as f64) as f32;
@@ -583,44 +599,73 @@ fn ray_casting_formulation_equals_the_slices_for_orthographic_cameras() {
     assert!(rel < 0.05, "{rel}");
 }
 
-/// The paper's Figure 5 as numbers: a wider cone and a finer grid let more distant occluders
-/// count, so the mean occlusion of what is seen (the occlusion layer's sum P / sum A) falls.
+/// The 48^3 CT phantom under examples/demo.toml's classification and unit ambient light, seen
+/// at 48^2 by the scene's camera: the mean occlusion of what a camera sees (the occlusion
+/// layer's sum P / sum A) for given parameters.
+struct LitPhantom {
+    volume: Volume,
+    lut: Lut,
+    camera: Camera,
+    lighting: Lighting,
+}
+
+impl LitPhantom {
+    fn new() -> Self {
+        let scene = occlux::scene::Scene::parse(
+            include_str!("../examples/demo.toml"),
+            std::path::Path::new("."),
+        )
+        .unwrap();
+        let volume = phantom::ct(48).unwrap().with_centre(Vec3::ZERO);
+        let lut = scene.classification.bake(&volume);
+        let lighting = Lighting {
+            lights: vec![Light::Ambient {
+                radiance: Vec3::ONE,
+            }],
+            background: Vec3::ZERO,
+        };
+        let camera = Camera {
+            width: 48,
+            height: 48,
+            ..scene.camera
+        };
+        Self {
+            volume,
+            lut,
+            camera,
+            lighting,
+        }
+    }
+
+    fn occlusion(&self, camera: &Camera, params: &DosParams) -> f64 {
+        let input = DosInput {
+            volume: &self.volume,
+            lut: &self.lut,
+            camera,
+            lighting: &self.lighting,
+            params,
+        };
+        occlux::eval::dos_accuracy::mean_occlusion(&cpu::render(&input, &NoProgress).unwrap())
+    }
+}
+
+/// The paper's Figure 5 as numbers (with its sampling, equal areas of the cone's base): a wider
+/// cone and a finer grid let more distant occluders count, so the mean occlusion of what is
+/// seen (the occlusion layer's sum P / sum A) falls.
 /// Measured here (48^3 CT phantom, 48^2): theta 30 / 50 / 80 gives 0.658 / 0.624 / 0.468 at
 /// n = 5, and at theta 50 n = 2 / 5 / 13 gives 0.644 / 0.624 / 0.621 (the grid matters up to
 /// n = 5, then saturates).
 #[test]
 fn wider_cones_and_finer_grids_see_more_occluders() {
-    use occlux::eval::dos_accuracy::mean_occlusion;
-    let scene = occlux::scene::Scene::parse(
-        include_str!("../examples/demo.toml"),
-        std::path::Path::new("."),
-    )
-    .unwrap();
-    let volume = phantom::ct(48).unwrap().with_centre(Vec3::ZERO);
-    let lut = scene.classification.bake(&volume);
-    let mut camera = scene.camera;
-    camera.width = 48;
-    camera.height = 48;
-    let lighting = Lighting {
-        lights: vec![Light::Ambient {
-            radiance: Vec3::ONE,
-        }],
-        background: Vec3::ZERO,
-    };
+    let lit = LitPhantom::new();
     let occlusion = |theta_deg: f32, grid: u32| {
         let params = DosParams {
             theta_deg,
             grid,
+            sampling: ConeSampling::Area,
             ..DosParams::default()
         };
-        let input = DosInput {
-            volume: &volume,
-            lut: &lut,
-            camera: &camera,
-            lighting: &lighting,
-            params: &params,
-        };
-        mean_occlusion(&cpu::render(&input, &NoProgress).unwrap())
+        lit.occlusion(&lit.camera, &params)
     };
     let by_theta: Vec<f64> = [30.0, 50.0, 80.0].map(|t| occlusion(t, 5)).to_vec();
     let by_grid: Vec<f64> = [2, 5, 13].map(|n| occlusion(50.0, n)).to_vec();
@@ -694,4 +739,46 @@ fn occluders_outside_the_view_still_occlude() {
         "the wall should shade the floor there: {shade}"
     );
     assert!(miss < 0.1 * shade, "cropped {miss} of {shade}");
+}
+
+/// With samples of equal solid angle, a wider cone only adds directions further from the view
+/// axis, whose light crosses longer paths: the CT phantom darkens monotonically up to theta
+/// just below 90 degrees and settles there, framed or cropped (so that material lies beyond
+/// the image). Measured (48^3, 48^2, n 5): mean occlusion 0.659 at theta 30 to 0.529 at 89.99
+/// framed. With equal areas (the paper) it fell to 0.47 at 80, then rose to 0.62 at 88 and 1.0
+/// at 89.9 as samples flew beyond the volume.
+#[test]
+fn wider_cones_darken_monotonically_up_to_90_degrees() {
+    let lit = LitPhantom::new();
+    let framed = lit.camera;
+    let cropped = Camera::look_at(
+        framed.position,
+        Vec3::ZERO,
+        Vec3::Z,
+        Projection::Perspective { fov_y: 0.25 },
+        48,
+        48,
+    )
+    .unwrap();
+    let thetas = [30.0, 50.0, 70.0, 80.0, 85.0, 88.0, 89.0, 89.9, 89.99];
+    for (name, camera) in [("framed", framed), ("cropped", cropped)] {
+        let occlusion: Vec<f64> = thetas
+            .iter()
+            .map(|&theta_deg| {
+                let params = DosParams {
+                    theta_deg,
+                    ..DosParams::default()
+                };
+                lit.occlusion(&camera, &params)
+            })
+            .collect();
+        println!("{name}: mean occlusion at theta {thetas:?}: {occlusion:.3?}");
+        for (pair, theta) in occlusion.windows(2).zip(&thetas[1..]) {
+            assert!(
+                pair[1] <= pair[0],
+                "{name}: brighter at theta {theta}: {occlusion:?}"
+            );
+        }
+        assert!(occlusion[0] - occlusion[8] > 0.1, "{name}: {occlusion:?}");
+    }
 }

@@ -29,7 +29,9 @@ use occlux::camera::Camera;
 use occlux::classify::{presets, Classification};
 use occlux::lights::{Light, Lighting};
 use occlux::progress::NoProgress;
-use occlux::render::dos::{cpu, gpu, ClipPlane, ConeDistance, DosInput, DosParams, Formulation};
+use occlux::render::dos::{
+    cpu, gpu, ClipPlane, ConeDistance, ConeSampling, DosInput, DosParams, Formulation,
+};
 use occlux::volume::{phantom, Volume};
 
 fn lighting() -> Lighting {
@@ -93,6 +95,7 @@ fn two_dimensional_tf_clip_planes_and_wide_cones_agree() {
         grid: 13,
         slice_distance: Some(0.05),
         distance: ConeDistance::Exact,
+        sampling: ConeSampling::Area,
         formulation: Formulation::Slices,
         self_occlusion: true,
         clip_planes: vec![

@@ -226,10 +226,10 @@ fn occlusion_sweeping_keys_reach_the_ao_volume() {
 
 #[test]
 fn dos_method_takes_its_parameters() {
-    use occlux::render::dos::{ClipPlane, ConeDistance, DosParams, Formulation};
+    use occlux::render::dos::{ClipPlane, ConeDistance, ConeSampling, DosParams, Formulation};
     let text = format!(
         "{MINIMAL}[render]\nmethod = \"dos\"\ntheta_deg = 30\ngrid = 13\nslice_distance = 0.01\n\
-         distance = \"approximate\"\nformulation = \"rays\"\nself_occlusion = true\nclip_planes = [{{ point = [0, 0, 1], normal = [0, 0, 2] }}]\n"
+         distance = \"approximate\"\nsampling = \"area\"\nformulation = \"rays\"\nself_occlusion = true\nclip_planes = [{{ point = [0, 0, 1], normal = [0, 0, 2] }}]\n"
     );
     let scene = parse(&text).unwrap();
     assert_eq!(
@@ -239,6 +239,7 @@ fn dos_method_takes_its_parameters() {
             grid: 13,
             slice_distance: Some(0.01),
             distance: ConeDistance::Approximate,
+            sampling: ConeSampling::Area,
             formulation: Formulation::Rays,
             self_occlusion: true,
             clip_planes: vec![ClipPlane {

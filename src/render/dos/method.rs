@@ -46,6 +46,24 @@ const DISTANCE: ParamSpec = ParamSpec {
         ],
     },
 };
+const SAMPLING: ParamSpec = ParamSpec {
+    key: "sampling",
+    doc: "How the n x n samples spread over the cone",
+    kind: ParamKind::Choice {
+        options: &[
+            Choice {
+                name: "solid-angle",
+                doc: "each sample stands for an equal solid angle, as the cone phase function \
+                      weighs directions",
+            },
+            Choice {
+                name: "area",
+                doc: "each stands for an equal area of the base, a disc of radius d tan(theta) \
+                      (the paper)",
+            },
+        ],
+    },
+};
 const FORMULATION: ParamSpec = ParamSpec {
     key: "formulation",
     doc: "How the volume is cut into slabs",
@@ -91,6 +109,7 @@ impl RenderMethod for DosParams {
             GRID,
             SLICE_DISTANCE,
             DISTANCE,
+            SAMPLING,
             FORMULATION,
             SELF_OCCLUSION,
             CLIP_PLANES,
