@@ -46,6 +46,7 @@ class VIEW3D_PT_occlux(bpy.types.Panel):
         column.prop(settings, "dos_grid")
         column.prop(settings, "dos_slice_distance")
         column.prop(settings, "dos_distance")
+        column.prop(settings, "dos_sampling")
         layout.operator("occlux.render_dos", icon="RENDER_STILL")
         column = layout.column(align=True)
         column.prop(settings, "ipsvi_line_width")

@@ -23,7 +23,7 @@ AO = {p["key"]: p for p in scenes.method("ao")["params"]}
 IPSVI = {p["key"]: p for p in scenes.method("ipsvi")["params"]}
 PRESETS = tuple(occlux.PRESETS)
 # Labels for the registry's choice names; the rest are capitalised.
-LABELS = {"cdf": "CDF", "gauss-exact": "Gauss (exact erf)"}
+LABELS = {"cdf": "CDF", "gauss-exact": "Gauss (exact erf)", "solid-angle": "Solid angle"}
 
 
 def _items(param: dict) -> list[tuple[str, str, str]]:
@@ -220,6 +220,12 @@ class OccluxSettings(bpy.types.PropertyGroup):
         description=DOS["distance"]["doc"],
         items=_items(DOS["distance"]),
         default=DOS["distance"]["default"],
+    )
+    dos_sampling: EnumProperty(
+        name="Cone sampling",
+        description=DOS["sampling"]["doc"],
+        items=_items(DOS["sampling"]),
+        default=DOS["sampling"]["default"],
     )
     ipsvi_line_width: IntProperty(
         name="Line width",

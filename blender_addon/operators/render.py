@@ -30,6 +30,7 @@ def dos_section(settings) -> dict[str, Any]:
         "theta_deg": float(settings.dos_theta_deg),
         "grid": int(settings.dos_grid),
         "distance": settings.dos_distance,
+        "sampling": settings.dos_sampling,
     }
     if settings.dos_slice_distance > 0.0:  # else absent: the core's default
         section["slice_distance"] = float(settings.dos_slice_distance)

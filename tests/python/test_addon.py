@@ -806,6 +806,7 @@ def test_render_dos_writes_the_exr_layers_for_the_compositor(
         method_render(tmp_path, out, "ct-soft-tissue")
         + f"""
 s.dos_theta_deg, s.dos_grid, s.dos_distance = 30.0, 3, "approximate"
+s.dos_sampling = "area"
 s.dos_slice_distance = 0.05
 result["op"] = list(bpy.ops.occlux.render_dos())
 result["exr"] = s.last_exr
@@ -834,6 +835,7 @@ result["auto"] = [attempt(bpy.ops.occlux.render_dos), s.status]
     assert method["method"] == "dos", method
     assert method["theta_deg"] == pytest.approx(30.0) and method["grid"] == 3, method
     assert method["slice_distance"] == pytest.approx(0.05) and method["distance"] == "approximate"
+    assert method["sampling"] == "area", method
     lights = result["lighting"]["lights"]  # the world, as the one ambient light
     assert [light["type"] for light in lights] == ["ambient"], lights
     assert lights[0]["radiance"] == pytest.approx([1.0, 0.9, 0.8]), lights
@@ -1160,7 +1162,8 @@ def test_property_limits_defaults_and_choices_come_from_the_registry(
                     "default": p.default, "description": p.description}
         result["numbers"] = {n: number(n) for n in ("dos_theta_deg", "dos_grid", "ao_radius")}
         result["choices"] = {
-            n: choice(n) for n in ("dos_distance", "ao_method", "ipsvi_scattering", "preset")
+            n: choice(n)
+            for n in ("dos_distance", "dos_sampling", "ao_method", "ipsvi_scattering", "preset")
         }
         s.dos_theta_deg, s.dos_grid, s.ao_radius = 95.0, 99, 100000
         result["clamped"] = [s.dos_theta_deg, s.dos_grid, s.ao_radius]
@@ -1191,6 +1194,7 @@ def test_property_limits_defaults_and_choices_come_from_the_registry(
 
     for prop, param in (
         ("dos_distance", dos["distance"]),
+        ("dos_sampling", dos["sampling"]),
         ("ao_method", ao["ao_method"]),
         ("ipsvi_scattering", ipsvi["scattering"]),
     ):
