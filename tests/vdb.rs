@@ -276,3 +276,38 @@ fn empty_grids_are_written_as_valid_grids_without_voxels() {
         assert!(!voxels.is_empty(), "{options:?}");
     }
 }
+
+/// The writer encodes leaves a batch at a time (4096 leaves) to bound its memory: a grid of
+/// 17^3 = 4913 leaves, every one active, spans two batches and reads back voxel for voxel, in
+/// the right leaves.
+#[test]
+fn grids_of_more_leaves_than_a_batch_read_back_exactly() {
+    let dims = [136, 136, 136];
+    let volume = Volume::from_fn(dims, Vec3::ONE, Vec3::ZERO, |p| {
+        // Distinct per voxel, and 0 (inactive) on one voxel in seven.
+        let n = p.x + 136.0 * (p.y + 136.0 * p.z);
+        if n as u64 % 7 == 0 {
+            0.0
+        } else {
+            1.0 + n
+        }
+    })
+    .unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("many-leaves.vdb");
+    let options = VdbOptions {
+        compression: Compression::Zip,
+        half: false,
+    };
+    write_vdb(&path, &[VdbGrid::from_volume("density", &volume)], &options).unwrap();
+    let (voxels, _, _) = read_with_vdb_rs(&path, "density");
+    let nonzero = volume.values().iter().filter(|v| **v != 0.0).count();
+    assert_eq!(voxels.len(), nonzero);
+    for (&[i, j, k], &v) in &voxels {
+        assert_eq!(
+            v,
+            volume.at(i as usize, j as usize, k as usize),
+            "at {i} {j} {k}"
+        );
+    }
+}

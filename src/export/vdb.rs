@@ -12,13 +12,19 @@
 //! background, so a block stores its metadata byte 0 and then only its active values. On top of
 //! that, zlib (flag 1) is optional, and so is half-float storage (`Tree_float_5_4_3_HalfFloat`:
 //! values are rounded to f16 in the file and widened back to f32 by readers).
+//!
+//! Memory: the writer keeps the tree's topology (leaf origins) and reads each leaf's values
+//! from the dense grid when it writes them, encoding [`LEAVES_PER_BATCH`] leaves at a time in
+//! parallel, so beyond the dense grid it holds a few MiB whatever the grid's size (512^3:
+//! `occlux export` peaked at 2.06x the dense volume, the volume and the exported grid, where
+//! holding the whole tree took 2.49x).
 
 use crate::error::{Error, Result};
 use crate::export::atomic::write_atomic;
 use crate::volume::Volume;
 use glam::Vec3;
 use rayon::prelude::*;
-use std::collections::BTreeMap;
+use std::collections::{BTreeMap, BTreeSet};
 use std::io::{Seek, SeekFrom, Write};
 use std::path::Path;
 
@@ -266,17 +272,39 @@ fn metadata(w: &mut impl Write, name: &str, type_name: &str, bytes: &[u8]) -> st
 type Origin = [i32; 3];
 /// A leaf's 512 values, x slowest.
 type Leaf = [f32; 512];
-/// A 4-level node's leaves, by origin.
-type Node4 = BTreeMap<Origin, Leaf>;
+/// A 4-level node's leaves (those with active voxels), by origin.
+type Node4 = BTreeSet<Origin>;
 
-/// A sparse tree: leaves (8^3) keyed by their origin, grouped under 4-level (128^3) and
-/// 5-level (4096^3) nodes, in OpenVDB's child order (x slowest).
+/// Leaves whose value blocks are encoded at once (in parallel) before being written: bounds
+/// what the writer holds beyond the dense grid to this many encoded blocks (at most 2 KiB
+/// each), whatever the grid's size.
+const LEAVES_PER_BATCH: usize = 4096;
+
+/// A sparse tree's topology: the leaves (8^3) with active voxels, keyed by their origin and
+/// grouped under 4-level (128^3) and 5-level (4096^3) nodes, in OpenVDB's child order (x
+/// slowest). The values stay in the dense grid; [`gather`] reads a leaf's when it is written.
 struct Tree {
-    /// node5 origin -> node4 origin -> leaf origin -> 512 values (x slowest).
+    /// node5 origin -> node4 origin -> leaf origins.
     nodes: BTreeMap<Origin, BTreeMap<Origin, Node4>>,
     active_voxels: u64,
     /// Index-space bounding box of the active voxels (inclusive).
     active_box: [[i32; 3]; 2],
+}
+
+/// The values of the leaf at `origin` (x slowest), the background beyond the grid.
+fn gather(grid: &VdbGrid, origin: Origin) -> Leaf {
+    let [nx, ny, nz] = grid.dims;
+    let [li, lj, lk] = origin.map(|c| c as usize);
+    let mut leaf = [grid.background; 512];
+    for k in lk..(lk + 8).min(nz) {
+        for j in lj..(lj + 8).min(ny) {
+            let row = &grid.values[nx * (j + ny * k)..][..nx];
+            for i in li..(li + 8).min(nx) {
+                leaf[((i - li) << 6) | ((j - lj) << 3) | (k - lk)] = row[i];
+            }
+        }
+    }
+    leaf
 }
 
 fn build_tree(grid: &VdbGrid) -> Tree {
@@ -287,15 +315,13 @@ fn build_tree(grid: &VdbGrid) -> Tree {
     for lk in (0..nz).step_by(8) {
         for lj in (0..ny).step_by(8) {
             for li in (0..nx).step_by(8) {
-                let mut leaf = [grid.background; 512];
                 let mut any = false;
                 for k in lk..(lk + 8).min(nz) {
                     for j in lj..(lj + 8).min(ny) {
                         let row = &grid.values[nx * (j + ny * k)..][..nx];
-                        for i in li..(li + 8).min(nx) {
-                            let v = row[i];
+                        let end = (li + 8).min(nx);
+                        for (i, &v) in row[li..end].iter().enumerate().map(|(d, v)| (li + d, v)) {
                             if v != grid.background {
-                                leaf[((i - li) << 6) | ((j - lj) << 3) | (k - lk)] = v;
                                 any = true;
                                 active_voxels += 1;
                                 let at = [i as i32, j as i32, k as i32];
@@ -316,7 +342,7 @@ fn build_tree(grid: &VdbGrid) -> Tree {
                         .or_default()
                         .entry(n4)
                         .or_default()
-                        .insert(o, leaf);
+                        .insert(o);
                 }
             }
         }
@@ -471,37 +497,42 @@ fn write_grid<W: Write + Seek>(
         for (n4, leaves) in children {
             w.write_all(&mask(
                 4096,
-                leaves.keys().map(|o| child_index(*o, *n4, 3, 4)),
+                leaves.iter().map(|o| child_index(*o, *n4, 3, 4)),
             ))?;
             w.write_all(&mask(4096, []))?;
             w.write_all(&tile_block(4096, grid.background, options)?)?;
-            for leaf in leaves.values() {
-                w.write_all(&leaf_mask(leaf, grid.background))?;
+            for &leaf in leaves {
+                w.write_all(&leaf_mask(&gather(grid, leaf), grid.background))?;
             }
         }
     }
     let block_pos = w.stream_position()?;
-    // Leaves are encoded (and compressed) in parallel, then written in the file's order.
-    let leaves: Vec<&Leaf> = tree
+    // Leaves are encoded (and compressed) in parallel a batch at a time, then written in the
+    // file's order.
+    let leaves: Vec<Origin> = tree
         .nodes
         .values()
         .flat_map(|c| c.values())
-        .flat_map(|leaves| leaves.values())
+        .flatten()
+        .copied()
         .collect();
     let background = grid.background;
-    let blocks = leaves
-        .par_iter()
-        .map(|leaf| {
-            let mut block = leaf_mask(leaf, background);
-            block.extend(encode_values(
-                leaf.iter().copied().filter(|&v| v != background),
-                options,
-            )?);
-            Ok(block)
-        })
-        .collect::<std::io::Result<Vec<Vec<u8>>>>()?;
-    for block in &blocks {
-        w.write_all(block)?;
+    for batch in leaves.chunks(LEAVES_PER_BATCH) {
+        let blocks = batch
+            .par_iter()
+            .map(|&origin| {
+                let leaf = gather(grid, origin);
+                let mut block = leaf_mask(&leaf, background);
+                block.extend(encode_values(
+                    leaf.iter().copied().filter(|&v| v != background),
+                    options,
+                )?);
+                Ok(block)
+            })
+            .collect::<std::io::Result<Vec<Vec<u8>>>>()?;
+        for block in &blocks {
+            w.write_all(block)?;
+        }
     }
     let end_pos = w.stream_position()?;
     w.seek(SeekFrom::Start(offsets_at))?;
