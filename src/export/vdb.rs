@@ -16,7 +16,7 @@
 //! Memory: the writer keeps the tree's topology (leaf origins) and reads each leaf's values
 //! from the dense grid when it writes them, encoding [`LEAVES_PER_BATCH`] leaves at a time in
 //! parallel, so beyond the dense grid it holds a few MiB whatever the grid's size (512^3:
-//! `occlux export` peaked at 2.06x the dense volume, the volume and the exported grid, where
+//! `occlux export` peaked at 2.07x the dense volume, the volume and the exported grid, where
 //! holding the whole tree took 2.49x).
 
 use crate::error::{Error, Result};
