@@ -112,16 +112,7 @@ impl Camera {
     /// Every corner of the box projects inside the margin, and one touches it.
     pub fn framing(&self, lo: Vec3, hi: Vec3, margin: f32) -> Result<Camera> {
         let centre = 0.5 * (lo + hi);
-        let corners: Vec<Vec3> = (0..8)
-            .map(|c| {
-                let pick = |bit: usize, a: f32, b: f32| if c & bit == 0 { a } else { b };
-                Vec3::new(
-                    pick(1, lo.x, hi.x),
-                    pick(2, lo.y, hi.y),
-                    pick(4, lo.z, hi.z),
-                ) - centre
-            })
-            .collect();
+        let corners = box_corners(lo, hi).map(|c| c - centre);
         let (fx, fy) = self.half_extent();
         let keep = 1.0 - margin;
         // How far the box reaches towards the camera, and past it at the far side.
@@ -251,6 +242,19 @@ impl Camera {
     pub fn is_perspective(&self) -> bool {
         matches!(self.projection, Projection::Perspective { .. })
     }
+}
+
+/// The eight corners of the axis-aligned box [lo, hi] (bit 0 of the index picks x, bit 1 y,
+/// bit 2 z).
+pub fn box_corners(lo: Vec3, hi: Vec3) -> [Vec3; 8] {
+    std::array::from_fn(|c| {
+        let pick = |bit: usize, a: f32, b: f32| if c & bit == 0 { a } else { b };
+        Vec3::new(
+            pick(1, lo.x, hi.x),
+            pick(2, lo.y, hi.y),
+            pick(4, lo.z, hi.z),
+        )
+    })
 }
 
 /// Distances (t_near, t_far) where a ray enters and leaves an axis-aligned box, if it hits it

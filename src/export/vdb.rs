@@ -315,26 +315,28 @@ fn build_tree(grid: &VdbGrid) -> Tree {
     for lk in (0..nz).step_by(8) {
         for lj in (0..ny).step_by(8) {
             for li in (0..nx).step_by(8) {
+                let o = [li as i32, lj as i32, lk as i32];
+                // Beyond the grid a leaf holds the background, so only voxels count.
+                let leaf = gather(grid, o);
                 let mut any = false;
-                for k in lk..(lk + 8).min(nz) {
-                    for j in lj..(lj + 8).min(ny) {
-                        let row = &grid.values[nx * (j + ny * k)..][..nx];
-                        let end = (li + 8).min(nx);
-                        for (i, &v) in row[li..end].iter().enumerate().map(|(d, v)| (li + d, v)) {
-                            if v != grid.background {
-                                any = true;
-                                active_voxels += 1;
-                                let at = [i as i32, j as i32, k as i32];
-                                for a in 0..3 {
-                                    active_box[0][a] = active_box[0][a].min(at[a]);
-                                    active_box[1][a] = active_box[1][a].max(at[a]);
-                                }
-                            }
-                        }
+                for (n, _) in leaf
+                    .iter()
+                    .enumerate()
+                    .filter(|(_, v)| **v != grid.background)
+                {
+                    any = true;
+                    active_voxels += 1;
+                    let at = [
+                        o[0] + (n >> 6) as i32,
+                        o[1] + ((n >> 3) & 7) as i32,
+                        o[2] + (n & 7) as i32,
+                    ];
+                    for a in 0..3 {
+                        active_box[0][a] = active_box[0][a].min(at[a]);
+                        active_box[1][a] = active_box[1][a].max(at[a]);
                     }
                 }
                 if any {
-                    let o = [li as i32, lj as i32, lk as i32];
                     let n4 = o.map(|c| c & !127);
                     let n5 = o.map(|c| c & !4095);
                     nodes

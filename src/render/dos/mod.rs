@@ -70,9 +70,8 @@
 //! Limits (documented behaviour):
 //! - theta = 0 is the line towards the viewer: V is the transmittance back along the view axis.
 //!   With area sampling tan(theta) is capped at [`MAX_TAN_THETA`] (theta ~ 89.994 degrees),
-//!   and the base's pixel
-//!   radius at [`MAX_RADIUS_PX`]: past them every sample off the centre lands beyond the
-//!   buffers and clamping to their edges decides, as it would without the caps.
+//!   and the base's pixel radius at [`MAX_RADIUS_PX`]: past them every sample off the centre
+//!   lands beyond the buffers and clamping to their edges decides, as without the caps.
 //! - material outside the view still occludes: the buffers cover the image and a guard band
 //!   as wide as the volume box's projection reaches beyond it ([`guard_band`]: 0 when the box
 //!   is in view, at most half the image's larger side, the most when the box reaches behind a
@@ -90,7 +89,7 @@ pub mod cpu;
 pub mod gpu;
 mod method;
 
-use crate::camera::{Camera, Projection};
+use crate::camera::{box_corners, Camera, Projection};
 use crate::classify::{Lut, Optical};
 use crate::error::{Error, Result};
 use crate::lights::Lighting;
@@ -289,13 +288,7 @@ impl DosInput<'_> {
             .unwrap_or(self.volume.spacing().min_element());
         let cam = self.camera;
         let (lo, hi) = self.volume.bounds();
-        let corners = (0..8).map(|c| {
-            Vec3::new(
-                if c & 1 == 0 { lo.x } else { hi.x },
-                if c & 2 == 0 { lo.y } else { hi.y },
-                if c & 4 == 0 { lo.z } else { hi.z },
-            ) - cam.position
-        });
+        let corners = box_corners(lo, hi).map(|c| c - cam.position).into_iter();
         let (near, far) = if self.params.formulation == Formulation::Rays && cam.is_perspective() {
             // Distances along rays from the eye: the box's nearest point, its farthest corner.
             let nearest = (cam.position.clamp(lo, hi) - cam.position).length();
@@ -319,7 +312,7 @@ impl DosInput<'_> {
         let camera = widened(cam, band)?;
         let (hx, _) = camera.half_extent();
         let n = self.params.grid;
-        let cone = ConeGrid::new(n, self.params);
+        let cone = ConeGrid::new(self.params);
         let base_radius = d * cone.unit_tan;
         let (ring_lengths, sample_ring) = match self.params.distance {
             ConeDistance::Exact => {
@@ -383,12 +376,7 @@ pub fn guard_band(camera: &Camera, lo: Vec3, hi: Vec3) -> u32 {
     let (hx, hy) = camera.half_extent();
     let (w, h) = (camera.width as f32, camera.height as f32);
     let mut reach = 0.0f32;
-    for c in 0..8 {
-        let corner = Vec3::new(
-            if c & 1 == 0 { lo.x } else { hi.x },
-            if c & 2 == 0 { lo.y } else { hi.y },
-            if c & 4 == 0 { lo.z } else { hi.z },
-        ) - camera.position;
+    for corner in box_corners(lo, hi).map(|c| c - camera.position) {
         let (x, y) = if camera.is_perspective() {
             let z = corner.dot(camera.forward);
             if z <= 1e-6 * corner.length() {
@@ -457,7 +445,8 @@ pub struct ConeGrid {
 }
 
 impl ConeGrid {
-    pub fn new(n: u32, params: &DosParams) -> Self {
+    pub fn new(params: &DosParams) -> Self {
+        let n = params.grid;
         let disc = disc_grid(n);
         let rings: Vec<f64> = (0..n.div_ceil(2))
             .map(|m| ring_radius(n, m) as f64)
