@@ -103,7 +103,12 @@ impl RenderMethod for DosParams {
         lights: &[LightKind::Ambient],
         layers: &["beauty", "depth", "occlusion"],
         grids: &[],
-        chart: &["theta_deg = 30", "theta_deg = 50", "theta_deg = 80"],
+        chart: &[
+            "theta_deg = 30",
+            "theta_deg = 50",
+            "theta_deg = 80",
+            "theta_deg = 80\nsampling = \"area\"",
+        ],
         params: &[
             THETA_DEG,
             GRID,
