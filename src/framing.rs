@@ -43,11 +43,16 @@ pub fn settle(scene: &Scene, mut volume: Volume, hounsfield: Option<&str>) -> Re
     let mut notices = Vec::new();
     settle_units(&mut scene, hounsfield, &mut notices)?;
     settle_window(&mut scene.classification, &volume, &mut notices);
-    let content = content(&volume, &scene.classification);
+    let wants_content = scene.volume.centre == Some(Centre::Content) || scene.framing.is_some();
+    // A pass over every voxel (a tenth of a second per 8 million): only when something uses it.
+    let content = if wants_content || scene.volume.fit.is_none() {
+        content(&volume, &scene.classification)
+    } else {
+        None
+    };
     if scene.volume.fit.is_none() {
         notices.extend(depth_notice(&volume, &scene.classification, content));
     }
-    let wants_content = scene.volume.centre == Some(Centre::Content) || scene.framing.is_some();
     if wants_content && content.is_none() {
         notices.push(
             "content: no voxel is visible under this classification; the whole box is framed \
