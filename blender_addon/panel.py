@@ -81,7 +81,7 @@ class VIEW3D_PT_occlux(bpy.types.Panel):
                 verdict = "agree within noise" if settings.check_agrees else "DISAGREE"
                 box.label(text=f"RMSE {settings.check_rmse:.4g}: {verdict}")
                 box.label(text=f"RMSE / noise {settings.check_rmse_over_noise:.3f}")
-                box.label(text=f"RMS z {settings.check_rms_z:.3f}")
+                box.label(text=f"scale of z {settings.check_z_scale:.3f}")
             box.label(text=settings.check_report)
         if settings.status:
             layout.separator()

@@ -318,7 +318,7 @@ class OccluxSettings(bpy.types.PropertyGroup):
     # The last check's figures, shown in the panel.
     check_rmse: FloatProperty(name="RMSE", options={"SKIP_SAVE"})
     check_rmse_over_noise: FloatProperty(name="RMSE / noise", options={"SKIP_SAVE"})
-    check_rms_z: FloatProperty(name="RMS z", options={"SKIP_SAVE"})
+    check_z_scale: FloatProperty(name="Scale of z", options={"SKIP_SAVE"})
     check_agrees: bpy.props.BoolProperty(name="Agree", options={"SKIP_SAVE"})
     check_rel_rmse: FloatProperty(name="Relative RMSE", options={"SKIP_SAVE"})
     check_bias: FloatProperty(name="Bias", options={"SKIP_SAVE"})

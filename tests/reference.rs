@@ -487,22 +487,10 @@ fn tracking_cell_by_cell_is_unbiased_where_the_majorants_differ() {
             origin: centre - 2.0 * dir + 0.05 * k as f32 * Vec3::Y,
             dir,
         };
-        let (t0, t1) = occlux::camera::intersect_box(&ray, lo, hi).unwrap();
-        let steps = 20_000;
-        let h = (t1 - t0) / steps as f32;
-        let depth: f64 = (0..steps)
-            .map(|i| medium.sigma_t(ray.origin + (t0 + (i as f32 + 0.5) * h) * dir) as f64)
-            .sum::<f64>()
-            * h as f64;
+        let depth = optical_depth(&medium, &ray);
         depths.push(depth);
         let exact = (-depth).exp();
-        let estimates: Vec<f64> = (0..trials)
-            .map(|_| medium.transmittance(&ray, f32::INFINITY, &mut rng) as f64)
-            .collect();
-        let mean = estimates.iter().sum::<f64>() / trials as f64;
-        let variance =
-            estimates.iter().map(|e| (e - mean).powi(2)).sum::<f64>() / (trials - 1) as f64;
-        let stderr = (variance / trials as f64).sqrt();
+        let (mean, stderr) = transmittance_estimates(&medium, &ray, trials, &mut rng);
         let through = (0..trials)
             .filter(|_| medium.collide(&ray, f32::INFINITY, &mut rng).is_none())
             .count() as f64
@@ -523,6 +511,76 @@ fn tracking_cell_by_cell_is_unbiased_where_the_majorants_differ() {
     }
     // The rays cross matter: the check is not of empty space.
     assert!(depths.iter().all(|&d| d > 0.1), "{depths:?}");
+}
+
+/// The mean of `n` transmittance estimates along `ray` and its standard error.
+fn transmittance_estimates(
+    medium: &occlux::render::reference::medium::Medium,
+    ray: &Ray,
+    n: usize,
+    rng: &mut rand_pcg::Pcg32,
+) -> (f64, f64) {
+    let estimates: Vec<f64> = (0..n)
+        .map(|_| medium.transmittance(ray, f32::INFINITY, rng) as f64)
+        .collect();
+    let mean = estimates.iter().sum::<f64>() / n as f64;
+    let variance = estimates.iter().map(|e| (e - mean).powi(2)).sum::<f64>() / (n - 1) as f64;
+    (mean, (variance / n as f64).sqrt())
+}
+
+/// The optical depth of `medium` across its box along `ray`, by fine midpoint quadrature.
+fn optical_depth(medium: &occlux::render::reference::medium::Medium, ray: &Ray) -> f64 {
+    let (t0, t1) = medium.clip(ray).unwrap();
+    let steps = 20_000;
+    let h = (t1 - t0) / steps as f32;
+    (0..steps)
+        .map(|i| medium.sigma_t(ray.origin + (t0 + (i as f32 + 0.5) * h) * ray.dir) as f64)
+        .sum::<f64>()
+        * h as f64
+}
+
+#[test]
+fn deep_shadow_estimates_carry_their_own_noise() {
+    // Through a dense sphere (transmittance ~1e-5), every batch of a few transmittance
+    // estimates must state its noise honestly: its mean lies within its own standard error
+    // of the exact value as often as a normal variable would. Ratio tracking with Russian
+    // roulette at transmittance 0.05 read 0 +- 0 in nearly every batch here.
+    use occlux::render::reference::medium::Medium;
+    use rand_pcg::Pcg32;
+    let volume = occlux::volume::phantom::sphere(32, 0.8).unwrap();
+    let mut classification = occlux::classify::presets::preset("simulation").unwrap();
+    classification.density_scale = 0.36;
+    let lut = classification.bake(&volume);
+    let medium = Medium::tracking(&volume, &lut).unwrap();
+    let dir = Vec3::new(1.0, 0.3, -0.2).normalize();
+    let ray = Ray {
+        origin: Vec3::new(0.02, -0.03, 0.01) - 2.0 * dir,
+        dir,
+    };
+    let exact = (-optical_depth(&medium, &ray)).exp();
+    assert!((1e-6..1e-4).contains(&exact), "transmittance {exact}");
+    let mut rng = Pcg32::new(3, 5);
+    let (batches, size) = (400, 16);
+    let mut z = vec![];
+    let mut all = 0.0;
+    for _ in 0..batches {
+        let (mean, stderr) = transmittance_estimates(&medium, &ray, size, &mut rng);
+        assert!(stderr > 0.0, "a batch read {mean} +- 0 where T = {exact}");
+        z.push((mean - exact) / stderr);
+        all += mean / batches as f64;
+    }
+    let rms_z = (z.iter().map(|z| z * z).sum::<f64>() / batches as f64).sqrt();
+    let beyond_3 = z.iter().filter(|z| z.abs() > 3.0).count();
+    println!("T {exact:.3e}, mean {all:.3e}, RMS z {rms_z:.3}, |z| > 3: {beyond_3}");
+    assert!((0.8..1.25).contains(&rms_z), "RMS z {rms_z}");
+    assert!(
+        beyond_3 <= batches / 50,
+        "{beyond_3} batches beyond 3 standard errors"
+    );
+    assert!(
+        (all - exact).abs() < 0.05 * exact,
+        "mean {all:e} vs {exact:e}"
+    );
 }
 
 #[test]

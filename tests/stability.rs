@@ -709,10 +709,14 @@ fn the_single_scattering_reference_stays_finite_in_deep_shadow() {
     }
     // The methods lit by the sun, against the single reference: finite. Only ~15 pixels are
     // lit (the slab's grazing edges, a texel wide), so the errors are those of a few edge
-    // pixels: IPSVI -73 % at its default texel, -2 % with 128 texels; half-angle -9 %. The
-    // bounds are the measurements with a margin and record the failure mode.
+    // pixels: IPSVI -71 % at its default texel (beyond noise 2.06), -2 % with 128 texels;
+    // half-angle +152 % (8.8). (Against the reference's earlier transmittance estimator,
+    // ratio tracking with Russian roulette, whose deep-shadow samples were mostly 0 and rarely
+    // large, they read -73 % and -9 %; its estimates along these edges' shadow rays now match
+    // quadrature to 1e-4.) The bounds are the measurements with a margin and record the
+    // failure mode.
     let reference = reference_of(&s, Estimator::Single, 64);
-    for (m, bound) in [("ipsvi", 1.75), ("half-angle", 4.0)] {
+    for (m, bound) in [("ipsvi", 2.5), ("half-angle", 11.0)] {
         let mut s = s.clone();
         s.method = find(m).unwrap().at_setting("").unwrap();
         let name = format!("{m} behind a dense slab");

@@ -315,7 +315,7 @@ class OCCLUX_OT_check_cycles(OccluxJob, bpy.types.Operator):
         image.reload()  # a previous check's map of the same name
         settings.check_rmse = report.rmse
         settings.check_rmse_over_noise = report.rmse_over_noise
-        settings.check_rms_z = report.rms_z
+        settings.check_z_scale = report.z_scale
         settings.check_agrees = report.agrees()
         settings.check_report = str(js)
         verdict = "agree within noise" if report.agrees() else "DISAGREE"

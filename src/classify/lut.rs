@@ -108,14 +108,17 @@ impl Lut {
         })
     }
 
-    /// The largest extinction of any value in [lo, hi] at any gradient magnitude: the greatest
-    /// entry that linear interpolation over that range touches (a majorant there).
-    pub fn max_sigma_t_between(&self, lo: f32, hi: f32) -> f32 {
+    /// The least and the greatest extinction of any value in [lo, hi] at any gradient
+    /// magnitude: the extreme entries that linear interpolation over that range touches (a
+    /// minorant and a majorant there, since an interpolated value lies between its entries).
+    pub fn sigma_t_bounds_between(&self, lo: f32, hi: f32) -> [f32; 2] {
         let (first, last) = self.entries_between(lo, hi);
         (0..self.size[1])
             .flat_map(|j| (first..=last).map(move |i| (i, j)))
             .map(|(i, j)| self.entry(i, j)[0])
-            .fold(0.0, f32::max)
+            .fold([f32::INFINITY, 0.0], |[min, max], s| {
+                [min.min(s), max.max(s)]
+            })
     }
 
     /// The first and last entries along the value axis that lookups in [lo, hi] interpolate

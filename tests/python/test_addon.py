@@ -503,7 +503,7 @@ s.check_estimator, s.check_size, s.check_spp, s.check_seeds = {estimator!r}, 48,
 bpy.ops.wm.save_as_mainfile(filepath={str(blend)!r})
 objects = sorted(o.name for o in bpy.data.objects)
 result["op"] = list(bpy.ops.occlux.check_cycles())
-result["panel"] = [s.check_rmse, s.check_rmse_over_noise, s.check_rms_z, s.check_agrees]
+result["panel"] = [s.check_rmse, s.check_rmse_over_noise, s.check_z_scale, s.check_agrees]
 result["report"] = s.check_report
 image = bpy.data.images["phantom-{estimator}-zmap.png"]
 result["image_size"] = list(image.size)
@@ -517,17 +517,17 @@ result["scenes"] = [x.name for x in bpy.data.scenes]
     report = json.loads(report_path.read_text())
     assert (blend.parent / f"phantom-{estimator}-zmap.png").is_file()
     assert result["image_size"] == [48, 36], "the error map at the check's size, render aspect"
-    figures = [report[k] for k in ("rmse", "rmse_over_noise", "rms_z", "mean_z")]
+    figures = [report[k] for k in ("rmse", "rmse_over_noise", "z_scale", "mean_z")]
     assert all(np.isfinite(figures)) and report["pixels"] > 500, report
     # The agreement criteria of tests/python/test_cycles.py.
-    assert oc.RMS_Z_RANGE[0] <= report["rms_z"] <= oc.RMS_Z_RANGE[1], report
+    assert oc.Z_SCALE_RANGE[0] <= report["z_scale"] <= oc.Z_SCALE_RANGE[1], report
     assert abs(report["mean_z"]) <= oc.MAX_ABS_MEAN_Z, report
     assert report["fraction_over_3"] <= oc.MAX_FRACTION_OVER_3, report
     assert 0.0 < report["rmse"] and report["rmse_over_noise"] < 1.5, report
-    rmse, over_noise, rms_z, agrees = result["panel"]
+    rmse, over_noise, z_scale, agrees = result["panel"]
     assert rmse == pytest.approx(report["rmse"], rel=1e-5) and agrees is True
     assert over_noise == pytest.approx(report["rmse_over_noise"], rel=1e-5)
-    assert rms_z == pytest.approx(report["rms_z"], rel=1e-5)
+    assert z_scale == pytest.approx(report["z_scale"], rel=1e-5)
     assert result["unchanged"] and result["scenes"] == ["Scene"], "the harness cleaned up"
 
 

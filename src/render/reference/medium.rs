@@ -1,8 +1,8 @@
 //! The classified volume as a participating medium for Monte Carlo: free-flight sampling by
-//! delta tracking and transmittance by ratio tracking, both unbiased, against per-cell
-//! majorants ([`Majorants`]) walked cell by cell.
+//! delta tracking and transmittance by residual ratio tracking, both unbiased, against per-cell
+//! bounds of the extinction ([`Majorants`]) walked cell by cell.
 
-use super::majorants::Majorants;
+use super::majorants::{Bounds, Majorants};
 use crate::camera::{intersect_box, Ray};
 use crate::classify::{Lut, Optical};
 use crate::error::{Error, Result};
@@ -10,9 +10,17 @@ use crate::volume::Volume;
 use glam::Vec3;
 use rand::Rng;
 
-/// Below this transmittance, ratio tracking plays Russian roulette (survivors are reweighted,
-/// so the estimate stays unbiased) instead of marching on for ever-smaller contributions.
-const ROULETTE_BELOW: f32 = 0.05;
+/// The unbiased ray-marching transmittance estimator marches each cell's residual extinction
+/// (sigma_t - its minorant) in steps of at most this much residual majorant optical depth, so
+/// one march's error in optical depth stays a fraction of one and the power series that makes
+/// it unbiased converges in a few terms.
+const STEP_DEPTH: f32 = 0.25;
+
+/// The probability of estimating the power series beyond its first term exp(-X_0): each march
+/// costs as much as the pivot's, and with marches this fine the terms beyond add little noise
+/// for their cost (engine, sun, 64 spp: relative RMSE 0.095 with every first-order term, 0.098
+/// with 30 % of them, in 3/4 of the time).
+const FIRST_ORDER_PROBABILITY: f32 = 0.3;
 
 /// The largest optical depth of the majorants across the volume's box that tracking accepts:
 /// delta and ratio tracking take a step per unit of it along every path, so beyond this one
@@ -132,9 +140,9 @@ impl<'a> Medium<'a> {
         let mut crossings = Vec::new();
         if let Some((t0, t1)) = self.clip(ray) {
             self.majorants
-                .walk(ray, t0, t1.min(t_max), |ta, tb, majorant| {
-                    if majorant > 0.0 {
-                        crossings.push([ta, tb, majorant]);
+                .walk(ray, t0, t1.min(t_max), |ta, tb, bounds| {
+                    if bounds.max > 0.0 {
+                        crossings.push([ta, tb, bounds.max]);
                     }
                     false
                 });
@@ -179,26 +187,62 @@ impl<'a> Medium<'a> {
             .then_some(Collision { position, optical })
     }
 
-    /// An unbiased estimate of the transmittance along `ray` up to distance `t_max` (ratio
-    /// tracking with Russian roulette).
+    /// An unbiased estimate of the transmittance along `ray` up to distance `t_max`, by
+    /// unbiased ray marching (Kettunen, d'Eon, Pantaleoni and Novák 2021): with X_0, X_1, ...
+    /// independent jittered marches of the optical depth tau (each unbiased),
+    /// exp(-X_0) sum_k prod_{j <= k} (X_0 - X_j) / j has expectation exp(-X_0) exp(X_0 - tau),
+    /// the transmittance; the series is cut by Russian roulette ([`FIRST_ORDER_PROBABILITY`]).
+    /// Unlike ratio tracking (a product of random factors, heavy-tailed in deep shadow, or 0
+    /// under roulette) its estimates spread by a few times a march's error: a deep-shadow
+    /// pixel's samples state its noise honestly.
     pub fn transmittance(&self, ray: &Ray, t_max: f32, rng: &mut impl Rng) -> f32 {
         let Some((t0, t1)) = self.clip(ray) else {
             return 1.0;
         };
-        let mut transmittance = 1.0f32;
-        self.track(ray, t0, t1.min(t_max), rng, |t, majorant, rng| {
-            let sigma = self.optical(ray.origin + t * ray.dir).sigma_t;
-            transmittance *= 1.0 - sigma / majorant;
-            if transmittance < ROULETTE_BELOW {
-                if rng.random::<f32>() < 0.5 {
-                    transmittance = 0.0;
-                    return true;
-                }
-                transmittance *= 2.0;
+        let t1 = t1.min(t_max);
+        let pivot = self.march(ray, t0, t1, rng);
+        let mut sum = 1.0f32;
+        let mut term = 1.0f32;
+        let mut k = 1;
+        loop {
+            // Go on with a probability (past the first order, |term| at most 1: terms shrink
+            // as 1/k!, so the series ends soon); dividing by it keeps the expectation.
+            let p = if k == 1 {
+                FIRST_ORDER_PROBABILITY
+            } else {
+                term.abs().min(1.0)
+            };
+            if p == 0.0 || rng.random::<f32>() >= p {
+                break;
             }
-            false
-        });
-        transmittance
+            term *= (pivot - self.march(ray, t0, t1, rng)) / (k as f32 * p);
+            sum += term;
+            k += 1;
+        }
+        (-pivot).exp() * sum
+    }
+
+    /// An unbiased estimate of the optical depth along `ray` over [t0, t1]: each cell's
+    /// minorant exactly, its residual by a march with one random offset in steps of at most
+    /// [`STEP_DEPTH`] of residual optical depth (every sample uniform in its step).
+    fn march(&self, ray: &Ray, t0: f32, t1: f32, rng: &mut impl Rng) -> f32 {
+        let offset = rng.random::<f32>();
+        let mut depth = 0.0f32;
+        self.majorants
+            .walk(ray, t0, t1, |ta, tb, Bounds { min, max }| {
+                let length = tb - ta;
+                depth += min * length;
+                if max > min {
+                    let steps = ((max - min) * length / STEP_DEPTH).ceil().max(1.0);
+                    let h = length / steps;
+                    for i in 0..steps as u32 {
+                        let t = ta + (i as f32 + offset) * h;
+                        depth += (self.sigma_t(ray.origin + t * ray.dir) - min) * h;
+                    }
+                }
+                false
+            });
+        depth
     }
 
     /// The tentative collisions of the majorant medium along `ray` in [t0, t1], in order:
@@ -215,8 +259,8 @@ impl<'a> Medium<'a> {
         mut event: impl FnMut(f32, f32, &mut R) -> bool,
     ) {
         let mut left = free_path(1.0, rng);
-        self.majorants.walk(ray, t0, t1, |ta, tb, majorant| {
-            spend(&mut left, ta, tb, majorant, rng, &mut event)
+        self.majorants.walk(ray, t0, t1, |ta, tb, bounds| {
+            spend(&mut left, ta, tb, bounds.max, rng, &mut event)
         });
     }
 }

@@ -70,21 +70,21 @@ def write_outputs(
     """OUT/STEM-cycles.exr (Cycles' mean and standard error: float32 layers ``beauty`` and
     ``stderr``, R, G, B), OUT/STEM-zmap.png (the error map) and OUT/STEM-report.json (the report
     and ``extra``), each written atomically by the core."""
-    from .stats import MAX_ABS_MEAN_Z, MAX_FRACTION_OVER_3, RMS_Z_RANGE, error_map, z_scores
+    from .stats import MAX_ABS_MEAN_Z, MAX_FRACTION_OVER_3, Z_SCALE_RANGE, error_map, z_scores
 
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     exr = out / f"{stem}-cycles.exr"
     write_exr_layers(exr, {"beauty": cycles.mean, "stderr": cycles.stderr}, float32=True)
     png = out / f"{stem}-zmap.png"
-    z = z_scores(occlux, cycles.mean, cycles.stderr, report.noise_floor)
+    z = z_scores(occlux, cycles.mean, cycles.stderr)
     write_png(png, error_map(occlux, z, report.mask_alpha))
     summary = {
         **extra,
         **asdict(report),
         "agrees": report.agrees(),
         "criteria": {
-            "rms_z": list(RMS_Z_RANGE),
+            "z_scale": list(Z_SCALE_RANGE),
             "max_abs_mean_z": MAX_ABS_MEAN_Z,
             "max_fraction_over_3": MAX_FRACTION_OVER_3,
         },
