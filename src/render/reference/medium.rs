@@ -1,6 +1,6 @@
 //! The classified volume as a participating medium for Monte Carlo: free-flight sampling by
-//! delta tracking and transmittance by residual ratio tracking, both unbiased, against per-cell
-//! bounds of the extinction ([`Majorants`]) walked cell by cell.
+//! delta tracking and transmittance by unbiased ray marching, both against per-cell bounds of
+//! the extinction ([`Majorants`]) walked cell by cell.
 
 use super::majorants::{Bounds, Majorants};
 use crate::camera::{intersect_box, Ray};
@@ -33,9 +33,9 @@ const SURVIVAL: f32 = 0.1;
 const FIRST_ORDER_PROBABILITY: f32 = 0.3;
 
 /// The largest optical depth of the majorants across the volume's box that tracking accepts:
-/// delta and ratio tracking take a step per unit of it along every path, so beyond this one
-/// pixel's paths would take millions of steps (and a free path too short for f32 to add to
-/// the distance travelled would stop the walk).
+/// delta tracking takes a step per unit of it, and a march two per unit of residual depth, along
+/// every path, so beyond this one pixel's paths would take millions of steps (and a free path
+/// too short for f32 to add to the distance travelled would stop the walk).
 pub const MAX_TRACKED_DEPTH: f32 = 1e5;
 
 /// The medium: optical properties anywhere in the volume's box, zero outside.

@@ -39,9 +39,9 @@ class Report:
     ``z_scale`` is median(|z|) / MAD_OF_NORMAL, the spread of z that its bulk shows (1 when the
     standard errors are honest), which a few outlying pixels cannot move as they move ``rms_z``:
     those are counted by ``fraction_over_3``. (In the engine's deepest shadow, at 1e-8 of the
-    image's brightness, Cycles reads about 4e-7 where two independent Occlux estimators, ratio
-    tracking and unbiased ray marching, agree on 10-30 times less: a handful of |z| of 10-20
-    that would set RMS z to 1.5 alone.) ``rmse`` is the radiance RMSE and ``rms_noise`` the RMS
+    image's brightness, Cycles reads about 4e-7 where two independent Occlux estimators, residual
+    ratio tracking and unbiased ray marching, agree on 10-30 times less: a handful of |z| of
+    10-20 that set RMS z to 1.4 alone.) ``rmse`` is the radiance RMSE and ``rms_noise`` the RMS
     of the combined standard error, over the mask."""
 
     pixels: int
