@@ -1,5 +1,6 @@
-"""Occlux for Blender: load a scientific volume, light it with Occlux, bring the results into
-the scene and the compositor, and check them against Cycles.
+"""Occlux for Blender: load a scientific volume (or a time series of them, as an animated
+volume), light it with Occlux, bring the results into the scene and the compositor, and check
+them against Cycles.
 
 Installed as a Blender 5 extension (the `occlux` wheel comes with it), or as a legacy add-on zip
 when the `occlux` package is already importable in Blender's Python.

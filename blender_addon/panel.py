@@ -27,6 +27,9 @@ class VIEW3D_PT_occlux(bpy.types.Panel):
         column.prop(settings, "memory_budget_mb")
         column.prop(settings, "device")
         layout.operator("occlux.import_volume", icon="VOLUME_DATA")
+        column = layout.column(align=True)
+        column.prop(settings, "series_path")
+        column.operator("occlux.import_series", icon="SEQUENCE")  # reads the Series above
         layout.operator("occlux.import_stage", icon="IMPORT")
         layout.separator()
         column = layout.column(align=True)

@@ -90,6 +90,12 @@ class OccluxSettings(bpy.types.PropertyGroup):
         description="Volume file: NRRD (.nrrd, .nhdr), NIfTI (.nii, .nii.gz), OpenVDB or raw",
         subtype="FILE_PATH",
     )
+    series_path: StringProperty(
+        name="Series",
+        description="A time series from `occlux series`: its manifest NAME.series.json, or one "
+        "of its frames NAME_####.vdb beside it",
+        subtype="FILE_PATH",
+    )
     raw_dims: IntVectorProperty(
         name="Raw dims",
         description="For .raw files: voxels along x, y, z",

@@ -7,10 +7,10 @@
 
 use crate::error::{Error, Result};
 use glam::Vec3;
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 /// Perspective or orthographic projection; as JSON `{"type": "perspective", "fov_y": ...}`.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(tag = "type", rename_all = "lowercase")]
 pub enum Projection {
     /// Vertical field of view in radians.
@@ -20,7 +20,7 @@ pub enum Projection {
 }
 
 /// A camera and its image size.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Camera {
     pub position: Vec3,
     /// Unit vectors of the camera frame: `forward` into the scene, `right` and `up` on the image.

@@ -19,6 +19,7 @@ pub mod progress;
 pub mod registry;
 pub mod render;
 pub mod scene;
+pub mod series;
 pub mod volume;
 
 pub use error::{Error, Result};

@@ -11,10 +11,12 @@ use occlux::eval::{
 };
 use occlux::export::exr::Precision;
 use occlux::export::vdb::{Compression, VdbOptions};
-use occlux::gpu::DeviceChoice;
+use occlux::gpu::{Compute, DeviceChoice};
 use occlux::pipeline::{self, OutputOptions, Outputs};
+use occlux::progress;
 use occlux::render::reference::{self, Estimator, ReferenceParams};
 use occlux::scene::Scene;
+use occlux::series::{self, FrameSpec, Resume, SeriesOptions};
 use occlux::volume::{self, LoadOptions, RawSpec, ScalarType};
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -55,6 +57,43 @@ enum Command {
         scene: PathBuf,
         #[arg(short, long, default_value = "occlux-out")]
         out: PathBuf,
+        #[command(flatten)]
+        output: OutputArgs,
+        /// VDB value compression on top of active-mask compression.
+        #[arg(long, value_enum, default_value = "zip")]
+        compression: VdbCompression,
+        /// Store VDB values as half floats.
+        #[arg(long)]
+        half: bool,
+    },
+    /// Render and export a series of volumes (time steps, a batch) with one scene, lit and
+    /// classified the same in every frame: OUT/NAME_0001.vdb, OUT/NAME_0001.exr (+ .png), ...,
+    /// one USD stage OUT/NAME.usda with the grids as time samples, and the manifest
+    /// OUT/NAME.series.json. Rerun to resume: complete frames are skipped.
+    Series {
+        scene: PathBuf,
+        /// The frames: a shell pattern ('data/step_*.nrrd', quoted), a folder, or files;
+        /// default: the scene's volume.frames.
+        #[arg(long, num_args = 1..)]
+        frames: Option<Vec<String>>,
+        #[arg(short, long, default_value = "occlux-series")]
+        out: PathBuf,
+        /// The files' stem (default: the scene file's).
+        #[arg(long)]
+        name: Option<String>,
+        /// Write the renders (EXR + PNG per frame); without --render or --export, both.
+        #[arg(long)]
+        render: bool,
+        /// Write the grids (VDB per frame) and the USD stage.
+        #[arg(long)]
+        export: bool,
+        /// Also an AO volume per frame into the VDB's `ao` grid, by this method (as `occlux ao
+        /// --method`: sweep-physical, the visibility, is exact for ambient light).
+        #[arg(long)]
+        ao: Option<String>,
+        /// Tangent-sphere radius in voxels (--ao with a VAO method).
+        #[arg(long, default_value_t = 10)]
+        ao_radius: u32,
         #[command(flatten)]
         output: OutputArgs,
         /// VDB value compression on top of active-mask compression.
@@ -331,6 +370,33 @@ fn run(cli: Cli) -> occlux::Result<()> {
                 quiet,
             )
         }
+        Command::Series {
+            scene,
+            frames,
+            out,
+            name,
+            render,
+            export,
+            ao,
+            ao_radius,
+            output,
+            compression,
+            half,
+        } => {
+            let both = !render && !export;
+            let options = SeriesOptions {
+                render: render || both,
+                export: export || both,
+                ao,
+                ao_radius,
+                zip: matches!(compression, VdbCompression::Zip),
+                half,
+                float32: output.float32,
+                exposure: output.exposure,
+            };
+            let name = name.unwrap_or_else(|| pipeline::stem(&scene));
+            series(&scene, frames, &out, &name, &options, output.device, quiet)
+        }
         Command::Demo { out, output } => output.run(
             &Scene::parse(DEMO_SCENE, Path::new("."))?,
             "demo",
@@ -458,6 +524,64 @@ fn run(cli: Cli) -> occlux::Result<()> {
             out: &out,
         }),
     }
+}
+
+/// `occlux series`: plans the series (every frame read once), runs its frames in order on
+/// this machine and writes the stage; names every failed frame.
+fn series(
+    scene: &Path,
+    frames: Option<Vec<String>>,
+    out: &Path,
+    name: &str,
+    options: &SeriesOptions,
+    device: DeviceChoice,
+    quiet: bool,
+) -> occlux::Result<()> {
+    let (tree, base) = Scene::file_tree(scene)?;
+    let frames = frames.map(|specs| frame_files(&specs)).transpose()?;
+    let (compute, notice) = Compute::resolve(device)?;
+    if let Some(line) = notice {
+        progress::notice(quiet, line);
+    }
+    let (manifest, resume) = series::plan(tree, &base, frames, name, out, options, quiet)?;
+    if resume == Resume::Resumed {
+        progress::say(
+            quiet,
+            format_args!("resuming series '{name}' in {}", out.display()),
+        );
+    }
+    progress::say(
+        quiet,
+        format_args!("{} frames on {}", manifest.count, compute.describe()),
+    );
+    let summary = series::run(&manifest, out, &compute, quiet)?;
+    if !summary.complete.is_empty() {
+        progress::say(
+            quiet,
+            format_args!(
+                "{} frames already complete, skipped",
+                summary.complete.len()
+            ),
+        );
+    }
+    let summary = summary.into_result()?;
+    for (_, files) in &summary.written {
+        progress::report_written(files, quiet);
+    }
+    if let Some(stage) = &summary.stage {
+        progress::report_written(std::slice::from_ref(stage), quiet);
+    }
+    Ok(())
+}
+
+/// `--frames` as files: one argument may be a pattern or a folder (read in natural order), or
+/// several name the files (the shell expanded a pattern).
+fn frame_files(specs: &[String]) -> occlux::Result<Vec<PathBuf>> {
+    let spec = match specs {
+        [one] => FrameSpec::Pattern(one.clone()),
+        many => FrameSpec::List(many.iter().map(PathBuf::from).collect()),
+    };
+    spec.resolve(Path::new(""))
 }
 
 /// Prints the method registry: JSON, or a summary per method.

@@ -199,7 +199,7 @@ pub fn write_reference(
 
 /// `STEM.exr` holding `layers` with `meta` in its header, and the PNG preview of `preview`, as
 /// part of `set`.
-fn write_image_files(
+pub fn write_image_files(
     preview: &RenderImage,
     layers: &[ExrLayer],
     meta: &BTreeMap<String, String>,
@@ -243,16 +243,7 @@ pub fn export(
 ) -> Result<Vec<PathBuf>> {
     let vdb_name = format!("{stem}.vdb");
     let extinction = scene.classification.extinction(volume)?;
-    let mut grids = vec![
-        VdbGrid::from_volume(EXPORT_GRIDS[0], &extinction),
-        VdbGrid::from_volume(EXPORT_GRIDS[1], volume),
-    ];
-    grids.extend(
-        rendered
-            .grids
-            .iter()
-            .map(|grid| vdb_grid(grid.name, &grid.volume)),
-    );
+    let grids = export_grids(rendered, &extinction, volume);
     let names: Vec<&str> = grids.iter().map(|g| g.name).collect();
     let stage = StageDescription::new(
         &vdb_name,
@@ -270,6 +261,26 @@ pub fn export(
     let meta = header_metadata(scene);
     write_image_files(image, &render_layers(image), &meta, &mut set, stem, output)?;
     set.commit()
+}
+
+/// The grids an export writes: `density` (the classified `extinction`), `value` (`volume`) and
+/// the grids the method computed.
+pub fn export_grids<'a>(
+    rendered: &'a Rendered,
+    extinction: &'a Volume,
+    volume: &'a Volume,
+) -> Vec<VdbGrid<'a>> {
+    let mut grids = vec![
+        VdbGrid::from_volume(EXPORT_GRIDS[0], extinction),
+        VdbGrid::from_volume(EXPORT_GRIDS[1], volume),
+    ];
+    grids.extend(
+        rendered
+            .grids
+            .iter()
+            .map(|grid| vdb_grid(grid.name, &grid.volume)),
+    );
+    grids
 }
 
 /// The VDB grid of a volume Occlux computed, by its name: the signed distance (`sdf`) is a

@@ -249,6 +249,12 @@ pub trait RenderMethod: Clone + Debug + PartialEq + Default + Serialize + Deseri
     fn resolve(self) -> Result<Self>;
 
     fn render(&self, input: &MethodInput) -> Result<Rendered>;
+
+    /// The grids [`RenderMethod::render`] computes with these parameters, in its order: the
+    /// ones of the spec's `grids` that these settings produce.
+    fn grids(&self) -> Vec<&'static str> {
+        Vec::new()
+    }
 }
 
 /// The method a scene renders with when its `[render]` names none.
@@ -438,6 +444,13 @@ macro_rules! methods {
             fn spec_of(&self) -> &'static MethodSpec {
                 match self {
                     $(Method::$variant(_) => &<$params as RenderMethod>::SPEC,)*
+                }
+            }
+
+            /// The grids a render computes with these parameters.
+            pub fn grids(&self) -> Vec<&'static str> {
+                match self {
+                    $(Method::$variant(params) => params.grids(),)*
                 }
             }
 

@@ -46,6 +46,7 @@ use crate::classify::{
 use crate::error::{Error, Result};
 use crate::lights::{Light, Lighting};
 pub use crate::registry::Method;
+use crate::series::FrameSpec;
 use crate::volume::{self, phantom, LoadOptions, NonFinite, RawSpec, ScalarType, Volume};
 use glam::Vec3;
 use serde::{Deserialize, Serialize};
@@ -93,6 +94,10 @@ pub struct VolumeSource {
     pub fit: Option<f32>,
     /// Where the bounding box's centre (or the visible content's) goes.
     pub centre: Option<Centre>,
+    /// A series' frames (`volume.frames`), resolved against the scene's folder: what `occlux
+    /// series` renders when no `--frames` are given. The volume itself is then the first frame
+    /// (unless `path` names another), so `occlux render` previews the series.
+    pub frames: Option<Vec<PathBuf>>,
 }
 
 /// `volume.fit = "auto"`: the longest side, in world units, that the presets' extinctions are
@@ -128,12 +133,19 @@ pub enum SourceKind {
 impl Scene {
     /// Reads and validates a scene file; relative volume paths are resolved against its folder.
     pub fn from_file(path: &Path) -> Result<Self> {
-        let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
-        let base = path.parent().unwrap_or(Path::new("."));
-        Self::parse(&text, base).map_err(|e| match e {
+        let (tree, base) = Self::file_tree(path)?;
+        Self::from_value(tree, &base).map_err(|e| match e {
             Error::Param { .. } => Error::format(path, e.to_string()),
             other => other,
         })
+    }
+
+    /// A scene file's tree, unvalidated, and the folder its relative paths are read from (what
+    /// `occlux series` keeps to build each frame's scene).
+    pub fn file_tree(path: &Path) -> Result<(Value, PathBuf)> {
+        let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+        let tree: Value = toml::from_str(&text).map_err(|e| Error::format(path, e.message()))?;
+        Ok((tree, path.parent().unwrap_or(Path::new(".")).to_path_buf()))
     }
 
     /// Parses and validates scene text; `base` resolves relative paths.
@@ -236,6 +248,8 @@ struct VolumeSection {
     /// Substitute for NaN/infinite values; absent: such values are an error.
     replace_non_finite: Option<f32>,
     memory_budget_gib: Option<f64>,
+    /// A series: a shell pattern or folder, or a list of files.
+    frames: Option<FrameSpec>,
 }
 
 #[derive(Deserialize)]
@@ -433,7 +447,15 @@ impl VolumeSource {
 
 impl VolumeSection {
     fn resolve(self, base: &Path) -> Result<VolumeSource> {
-        let kind = match (self.path, self.phantom) {
+        let frames = match &self.frames {
+            Some(spec) => Some(spec.resolve(base).map_err(|e| match e {
+                Error::Param { message, .. } => Error::param("volume.frames", message),
+                other => other,
+            })?),
+            None => None,
+        };
+        let first_frame = frames.as_ref().map(|f| f[0].clone());
+        let kind = match (self.path.or(first_frame), self.phantom) {
             (Some(path), None) => SourceKind::File(base.join(path)),
             (None, Some(name)) => {
                 let size = self.size.unwrap_or(64);
@@ -511,6 +533,7 @@ impl VolumeSection {
             options,
             fit,
             centre,
+            frames,
         })
     }
 }

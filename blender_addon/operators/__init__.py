@@ -1,7 +1,8 @@
 """The add-on's operators, one module per family: `volume` (load a volume, compute its ambient
 occlusion), `render` (method renders: DOS and IPSVI), `check` (the check against Cycles),
-`composite` (an Occlux EXR layer in the compositor) and `stage` (Import Occlux Stage: a USD stage
-with its render size and camera, also in File > Import). The long ones are jobs, framed by `jobs`
+`composite` (an Occlux EXR layer in the compositor), `stage` (Import Occlux Stage: a USD stage
+with its render size and camera, also in File > Import) and `series` (Load Series: the VDBs of
+`occlux series` as one animated Volume object). The long ones are jobs, framed by `jobs`
 (progress, background thread, cancel). Each checks its input first and creates nothing when it
 fails."""
 
@@ -9,9 +10,16 @@ from __future__ import annotations
 
 import bpy
 
-from . import check, composite, jobs, render, stage, volume
+from . import check, composite, jobs, render, series, stage, volume
 
-CLASSES = volume.CLASSES + render.CLASSES + check.CLASSES + composite.CLASSES + stage.CLASSES
+CLASSES = (
+    volume.CLASSES
+    + series.CLASSES
+    + render.CLASSES
+    + check.CLASSES
+    + composite.CLASSES
+    + stage.CLASSES
+)
 
 
 def register() -> None:

@@ -1,11 +1,12 @@
 """Volume import and ambient occlusion: load and classify the volume file into the scene as a
 Volume object, and compute its ambient occlusion into an `ao` grid that shades its material.
 One dataset is one object: Compute AO gives the object it acts on (the active Occlux volume,
-else the one of the panel's file) a VDB holding all its grids, never a second object."""
+else the one of the panel's file) a VDB holding all its grids, never a second object. `show`
+makes the Volume object and its material for these and for Load Series (`series.py`)."""
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -139,38 +140,90 @@ class OCCLUX_OT_compute_ao(OccluxJob, bpy.types.Operator):
         return f"AO ({ao_label(settings)}) of {source} on '{obj.name}' ({result.vdb})"
 
 
+# The custom properties that mark the Volume objects Occlux shows: a dataset's (the volume file
+# as typed, which the operators act on) and a series' (its manifest: `series.py`).
+SOURCE, SERIES = "occlux_source", "occlux_series"
+
+
+@dataclass(frozen=True)
+class FrameSequence:
+    """A VDB per frame, numbered in the file names as Blender's volume sequences are (the
+    digits just before `.vdb`, zero-padded): `count` files from the number `first`."""
+
+    count: int
+    first: int
+
+
+@dataclass(frozen=True)
+class Shown:
+    """What a Volume object shows: the VDB (the first frame's, for a `sequence`) with the
+    `grids` it must hold, the material's control points (None: a 2D transfer function), and
+    the custom property `mark` that marks the object, holding `setting`. `owned`: the add-on
+    wrote the VDB, so a file Blender cannot read is removed (a series' files are the user's)."""
+
+    name: str
+    vdb: Path
+    grids: tuple[str, ...]
+    points: Sequence[material.Point] | None
+    mark: str
+    setting: str
+    owned: bool
+    sequence: FrameSequence | None = None
+
+
 def show_volume(
     context: bpy.types.Context, loaded: Loaded, ao: str | None, target: bpy.types.Object | None
-):
-    """The dataset's Volume object shows the VDB with the Occlux material (AO-shaded by `ao`):
-    `target` (the object the operator acted on), else the Occlux volume named after the file,
-    else a new one. An existing object keeps its transform, visibility and name; its previous
-    data and material go if nothing else uses them. The object is made active and selected.
-    If Blender cannot read the file, nothing changes (and the file is removed)."""
-    name = loaded.source.stem
+) -> bpy.types.Object:
+    """The dataset's Volume object (`show`) for a VDB a job wrote."""
+    grids = ("density", "value") + (() if ao is None else ("ao",))
+    shown = Shown(
+        name=loaded.source.stem,
+        vdb=loaded.vdb,
+        grids=grids,
+        points=loaded.classification.raw_points(loaded.volume),
+        mark=SOURCE,
+        setting=loaded.source.setting,
+        owned=True,
+    )
+    return show(context, shown, ao, target)
+
+
+def show(
+    context: bpy.types.Context, shown: Shown, ao: str | None, target: bpy.types.Object | None
+) -> bpy.types.Object:
+    """The Volume object shows the VDB with the Occlux material (AO-shaded by `ao`): `target`
+    (the object the operator acted on), else the object of the same name that carries the same
+    mark, else a new one. An existing object keeps its transform, visibility and name; its
+    previous data and material go if nothing else uses them. The object is made active and
+    selected. If Blender cannot read the file, or it lacks one of the grids, nothing changes
+    (and an owned file is removed)."""
+    name = shown.name
+    # Read before anything is added: a textured world is refused with nothing made.
+    ambient = scenes.world_radiance(context.scene) if ao == "AMBIENT" else (0.0, 0.0, 0.0)
     data = bpy.data.volumes.new(name)
-    data.filepath = str(loaded.vdb)
+    data.filepath = str(shown.vdb)
     # Cycles reads the grids at full precision, none clipped as empty: Occlux's values.
     data.render.precision = "FULL"
     data.render.clipping = 0.0
-    if not data.grids.load():
-        error = data.grids.error_message
+    error = None if data.grids.load() else data.grids.error_message
+    missing = [g for g in shown.grids if g not in data.grids]
+    if error is None and missing:
+        error = f"no grid {', '.join(missing)} (it holds {', '.join(data.grids.keys())})"
+    if error is not None:
         bpy.data.volumes.remove(data)
-        loaded.vdb.unlink(missing_ok=True)
-        raise OSError(f"Blender cannot read {loaded.vdb}: {error}")
-    ambient = scenes.world_radiance(context.scene) if ao == "AMBIENT" else (0.0, 0.0, 0.0)
+        if shown.owned:
+            shown.vdb.unlink(missing_ok=True)
+        raise OSError(f"Blender cannot read {shown.vdb}: {error}")
+    if shown.sequence is not None:
+        show_sequence(context.scene, data, shown.sequence)
     shading = material.volume_material(
-        f"Occlux {name}",
-        loaded.classification.raw_points(loaded.volume),
-        ao,
-        context.scene.occlux.ao_factor,
-        ambient,
+        f"Occlux {name}", shown.points, ao, context.scene.occlux.ao_factor, ambient
     )
     data.materials.append(shading)
     obj = target
     if obj is None:
         same = bpy.data.objects.get(name)
-        if same is not None and same.type == "VOLUME" and "occlux_source" in same:
+        if same is not None and same.type == "VOLUME" and shown.mark in same:
             obj = same
     if obj is None:
         obj = bpy.data.objects.new(name, data)
@@ -179,7 +232,7 @@ def show_volume(
         previous, obj.data = obj.data, data
         release(previous)
         shading.name = f"Occlux {name}"  # the released material's name, free again
-    obj["occlux_source"] = loaded.source.setting
+    obj[shown.mark] = shown.setting
     # A material of AMBIENT shading carries the world's light, so the world lights only camera
     # rays while one shows; otherwise (e.g. shading switched to ALBEDO) it lights every ray.
     if any(material.carries_ambient(o.active_material) for o in context.scene.objects):
@@ -187,9 +240,23 @@ def show_volume(
     elif context.scene.world is not None:
         material.all_rays(context.scene.world)
     for other in context.view_layer.objects:
-        other.select_set(other == obj)
+        other.select_set(False)
+    # After the loop: a new object's base may not be in the view layer's list yet.
     context.view_layer.objects.active = obj
+    obj.select_set(True)
     return obj
+
+
+def show_sequence(scene: bpy.types.Scene, data: bpy.types.Volume, sequence: FrameSequence) -> None:
+    """Makes the volume play its files from the scene's first frame: at scene frame f Blender
+    loads the file numbered f - frame_start + 1 + frame_offset (the digits before `.vdb` put in
+    its path), so frame_start shows the first file. CLIP shows nothing outside the sequence's
+    frames rather than holding or repeating one, so a frame never shows another time's data."""
+    data.is_sequence = True
+    data.frame_start = scene.frame_start
+    data.frame_duration = sequence.count
+    data.frame_offset = sequence.first - 1
+    data.sequence_mode = "CLIP"
 
 
 def release(data: bpy.types.Volume) -> None:

@@ -13,6 +13,7 @@ mod metrics;
 mod reference;
 mod render;
 mod scene;
+mod series;
 mod vdb;
 mod volume;
 mod writers;
@@ -51,6 +52,9 @@ fn _occlux(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(export::export, m)?)?;
     m.add_function(wrap_pyfunction!(ao::ao_volume, m)?)?;
     m.add_function(wrap_pyfunction!(methods, m)?)?;
+    m.add_function(wrap_pyfunction!(series::series_plan, m)?)?;
+    m.add_function(wrap_pyfunction!(series::series_frame, m)?)?;
+    m.add_function(wrap_pyfunction!(series::series_finish, m)?)?;
     writers::register(m)?;
     metrics::register(m)?;
     Ok(())

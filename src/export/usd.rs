@@ -42,6 +42,9 @@ pub struct StageDescription {
     pub lights: Vec<LightPrim>,
     /// Image size of the renders that go with the stage (a `UsdRender.Settings` prim).
     pub resolution: [u32; 2],
+    /// A sequence's first and last time codes (`startTimeCode`, `endTimeCode`); None for one
+    /// file.
+    pub time_codes: Option<[u32; 2]>,
 }
 
 /// The volume prim and its fields.
@@ -59,6 +62,9 @@ pub struct FieldPrim {
     pub name: String,
     pub file_path: String,
     pub field_name: String,
+    /// A sequence: the file at each time code (`filePath.timeSamples`); `file_path` stays the
+    /// default for readers that ignore time.
+    pub time_samples: Vec<(u32, String)>,
 }
 
 /// A `UsdGeom.Camera`.
@@ -84,6 +90,17 @@ pub struct LightPrim {
     pub transform: [[f64; 4]; 4],
     pub intensity: f64,
     pub color: [f64; 3],
+}
+
+/// Checks that `file` can be written between `@` as a USD asset path.
+fn check_asset_path(file: &str) -> Result<()> {
+    if file.is_empty() || file.contains(['@', '\n', '\\']) {
+        return Err(Error::param(
+            "usd",
+            format!("'{file}' cannot be written as a USD asset path"),
+        ));
+    }
+    Ok(())
 }
 
 /// Checks that `name` can be a prim name: letters, digits and underscores, not starting with a
@@ -120,12 +137,7 @@ impl StageDescription {
         if grids.is_empty() {
             return Err(Error::param("usd", "a volume needs at least one grid"));
         }
-        if vdb_file.is_empty() || vdb_file.contains(['@', '\n', '\\']) {
-            return Err(Error::param(
-                "usd",
-                format!("'{vdb_file}' cannot be written as a USD asset path"),
-            ));
-        }
+        check_asset_path(vdb_file)?;
         let fields = grids
             .iter()
             .map(|&grid| {
@@ -134,6 +146,7 @@ impl StageDescription {
                     name: grid.to_owned(),
                     file_path: format!("./{vdb_file}"),
                     field_name: grid.to_owned(),
+                    time_samples: Vec::new(),
                 })
             })
             .collect::<Result<Vec<_>>>()?;
@@ -157,7 +170,29 @@ impl StageDescription {
                 .map(|(n, l)| light_prim(n, l))
                 .collect(),
             resolution: [camera.width, camera.height],
+            time_codes: None,
         })
+    }
+
+    /// The stage of a sequence: every field reads `files[i]` at time code `first + i` (a
+    /// series' VDBs, relative to the stage), played at 24 frames per second as Blender does.
+    pub fn with_time_samples(mut self, first: u32, files: &[String]) -> Result<Self> {
+        if files.is_empty() {
+            return Err(Error::param("usd", "a sequence needs at least one file"));
+        }
+        for file in files {
+            check_asset_path(file)?;
+        }
+        let samples: Vec<(u32, String)> = files
+            .iter()
+            .zip(first..)
+            .map(|(file, code)| (code, format!("./{file}")))
+            .collect();
+        for field in &mut self.volume.fields {
+            field.time_samples = samples.clone();
+        }
+        self.time_codes = Some([first, first + files.len() as u32 - 1]);
+        Ok(self)
     }
 
     /// The description as JSON, for the Python package's pxr authoring.
@@ -174,10 +209,15 @@ impl StageDescription {
             s,
             "#usda 1.0\n(\n    defaultPrim = \"{root}\"\n    doc = \"Written by Occlux {}\"\n    \
              metersPerUnit = {}\n    renderSettingsPrimPath = \"/Render/Settings\"\n    \
-             upAxis = \"{}\"\n)\n",
+             upAxis = \"{}\"\n{})\n",
             env!("CARGO_PKG_VERSION"),
             self.meters_per_unit,
-            self.up_axis
+            self.up_axis,
+            self.time_codes
+                .map_or(String::new(), |[start, end]| format!(
+                    "    startTimeCode = {start}\n    endTimeCode = {end}\n    \
+                 timeCodesPerSecond = 24\n    framesPerSecond = 24\n"
+                ))
         );
         let _ = writeln!(s, "def Xform \"{root}\"\n{{");
         self.volume_usda(&mut s);
@@ -215,9 +255,12 @@ impl StageDescription {
                 "\n        def OpenVDBAsset \"{}\"\n        {{\n            \
                  token fieldClass = \"fogVolume\"\n            \
                  token fieldDataType = \"float\"\n            \
-                 token fieldName = \"{}\"\n            asset filePath = @{}@\n            \
+                 token fieldName = \"{}\"\n            asset filePath = @{}@\n{}            \
                  token visibility = \"invisible\"\n        }}",
-                f.name, f.field_name, f.file_path
+                f.name,
+                f.field_name,
+                f.file_path,
+                time_samples(&f.time_samples)
             );
         }
         let _ = writeln!(s, "    }}\n");
@@ -241,6 +284,21 @@ impl StageDescription {
             matrix(&c.transform)
         );
     }
+}
+
+/// A field's `filePath.timeSamples` line, or nothing for one file.
+fn time_samples(samples: &[(u32, String)]) -> String {
+    if samples.is_empty() {
+        return String::new();
+    }
+    let entries: Vec<String> = samples
+        .iter()
+        .map(|(code, file)| format!("{code}: @{file}@"))
+        .collect();
+    format!(
+        "            asset filePath.timeSamples = {{ {} }}\n",
+        entries.join(", ")
+    )
 }
 
 fn light_usda(s: &mut String, l: &LightPrim) {

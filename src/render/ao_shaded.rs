@@ -397,6 +397,18 @@ impl RenderMethod for AoParams {
     fn render(&self, input: &MethodInput) -> Result<Rendered> {
         render(input, self)
     }
+
+    /// The openness; VAO's variance when asked for; the geometric sweep's signed distance.
+    fn grids(&self) -> Vec<&'static str> {
+        let mut grids = vec![AO_GRID];
+        if self.ao_variance && matches!(self.ao_method, AoMethod::Vao(_)) {
+            grids.push(AO_VARIANCE_GRID);
+        }
+        if self.ao_method == AoMethod::Sweep {
+            grids.push(SDF_GRID);
+        }
+        grids
+    }
 }
 
 /// Computes the AO volume (progress: its units first, then the image rows) and renders with it;

@@ -106,7 +106,7 @@ def test_the_extension_installs_registers_and_reloads(extension: Path, tmp_path:
         tmp_path,
         """
         ops = ("import_volume", "compute_ao", "render_dos", "render_ipsvi", "check_cycles",
-               "composite", "import_stage")
+               "composite", "import_stage", "import_series")
         result["registered"] = [hasattr(bpy.ops.occlux, op) for op in ops]
         result["panel"] = hasattr(bpy.types, "VIEW3D_PT_occlux")
         result["settings"] = hasattr(bpy.types.Scene, "occlux")
@@ -139,7 +139,7 @@ def test_the_extension_installs_registers_and_reloads(extension: Path, tmp_path:
         result["drawn"] = len(drawn["props"]), sorted(drawn["ops"])
         """,
     )
-    assert result["registered"] == [True] * 7 and result["panel"] and result["settings"]
+    assert result["registered"] == [True] * 8 and result["panel"] and result["settings"]
     assert result["after_disable"] is False and result["after_reload"] is True
     assert result["unknown_props"] == [] and result["unknown_ops"] == [], result
     assert result["drawn"][0] > 20 and result["drawn"][1] == sorted(
@@ -148,6 +148,7 @@ def test_the_extension_installs_registers_and_reloads(extension: Path, tmp_path:
             "import_volume", "compute_ao", "render_dos", "render_ipsvi", "check_cycles",
             "composite",
             "import_stage",
+            "import_series",
         )
     ), result["drawn"]  # fmt: skip
     # The occlux package came from the wheel inside the extension, not from this checkout.

@@ -18,6 +18,8 @@ grids, OpenEXR layers and USD stages that Blender and other tools read::
 Python (numpy layers, an 8-bit picture, text, a reference) with the core's atomic writers.
 ``image_error`` and ``write_error_map`` measure an image against a reference of the same scene
 (DESIGN.md's relative RMSE and bias over the volume's pixels, and a map with a colour key).
+``series`` renders and exports a time series (one scene over many volumes) as Dask tasks,
+on a LocalCluster or any ``distributed.Client``; ``occlux series`` is its command line twin.
 ``occlux.cycles`` checks the references against Blender's Cycles.
 
 ``occlux.usd`` authors the same USD stages through usd-core's ``pxr`` API, into a file or into
@@ -51,6 +53,7 @@ from occlux._occlux import (
     write_text,
     write_vdb,
 )
+from occlux.batch import SeriesError, SeriesResult, series
 
 __all__ = [
     "PHANTOMS",
@@ -60,6 +63,8 @@ __all__ = [
     "ReferenceResult",
     "RenderResult",
     "Scene",
+    "SeriesError",
+    "SeriesResult",
     "Volume",
     "__version__",
     "ao_volume",
@@ -68,6 +73,7 @@ __all__ = [
     "methods",
     "reference",
     "render",
+    "series",
     "stage_description",
     "write_error_map",
     "write_exr",

@@ -7,6 +7,10 @@ from typing import Any, Literal
 import numpy as np
 import numpy.typing as npt
 
+from occlux.batch import SeriesError as SeriesError
+from occlux.batch import SeriesResult as SeriesResult
+from occlux.batch import series as series
+
 __version__: str
 PHANTOMS: list[str]
 """Names that :meth:`Volume.phantom` accepts."""
