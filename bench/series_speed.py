@@ -90,9 +90,12 @@ def main() -> None:
     scene = make_series(root / "data", args.frames, args.side, args.size)
     ao = ["--ao", args.ao] if args.ao else []
     serial_s, dask_s, plan_s = [], [], []
-    with distributed.LocalCluster(
-        n_workers=args.workers, threads_per_worker=1, processes=True, dashboard_address=":0"
-    ) as cluster, distributed.Client(cluster) as client:
+    with (
+        distributed.LocalCluster(
+            n_workers=args.workers, threads_per_worker=1, processes=True, dashboard_address=":0"
+        ) as cluster,
+        distributed.Client(cluster) as client,
+    ):
         # Warm-up: page cache, worker imports.
         occlux.series(scene, None, root / "warm", ao=args.ao or None, client=client)
         for _ in range(args.repeats):
@@ -145,8 +148,7 @@ def main() -> None:
         f"{result['dask_frames_per_min']:.1f}/min ({result['dask_over_serial']:.2f}x)"
     )
     print(
-        f"per frame {per_frame:.3f} s; read {read / 2**20:.1f} MiB, "
-        f"write {written / 2**20:.2f} MiB"
+        f"per frame {per_frame:.3f} s; read {read / 2**20:.1f} MiB, write {written / 2**20:.2f} MiB"
     )
     for n, seconds in result["projection"].items():
         print(f"  {args.project} frames on {n} machine(s) like this one: {seconds / 60:.1f} min")
