@@ -245,6 +245,30 @@ fn info_reports_non_finite_values_and_quantiles_instead_of_refusing() {
 }
 
 #[test]
+fn info_counts_the_time_steps_of_a_series_and_describes_the_first() {
+    // 2 x 2 x 1 voxels in 3 frames: frame t holds 10 t + 0..3.
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("series.nrrd");
+    let mut file =
+        b"NRRD0004\ntype: uint8\ndimension: 4\nsizes: 2 2 1 3\nencoding: raw\n\n".to_vec();
+    file.extend((0..3u8).flat_map(|t| (0..4u8).map(move |v| 10 * t + v)));
+    std::fs::write(&path, &file).unwrap();
+    let run = occlux(&["info", path.to_str().unwrap()]);
+    let text = String::from_utf8_lossy(&run.stdout);
+    assert!(
+        run.status.success(),
+        "{}",
+        String::from_utf8_lossy(&run.stderr)
+    );
+    assert!(
+        text.contains("time steps 3 (occlux series reads each; info describes the first)"),
+        "{text}"
+    );
+    assert!(text.contains("dims      2 x 2 x 1 (4 voxels"), "{text}");
+    assert!(text.contains("values    0 .. 3"), "{text}");
+}
+
+#[test]
 fn a_missing_relative_path_says_where_it_was_looked_for() {
     let run = occlux(&["info", "no/such/volume.nrrd"]);
     assert!(!run.status.success());

@@ -7,7 +7,7 @@ use flate2::write::GzEncoder;
 use flate2::Compression;
 use glam::Vec3;
 use occlux::volume::{
-    load, load_with_info, Frame, LoadOptions, NonFinite, RawSpec, ScalarType, Volume,
+    frame_count, load, load_with_info, Frame, LoadOptions, NonFinite, RawSpec, ScalarType, Volume,
 };
 use occlux::Error;
 use std::io::{Read, Write};
@@ -716,6 +716,292 @@ fn npy_fortran_order_maps_first_axis_to_x() {
 }
 
 // ---------------------------------------------------------------------------------------------
+// Time series: 4-D NRRD and NIfTI-1 files read a frame at a time.
+
+/// Voxels of the test series: x, y, z, time steps.
+const SERIES: [usize; 4] = [5, 4, 3, 3];
+
+/// Every voxel of every frame of the series distinct: i + 10 j + 100 k + 1000 t.
+fn series_value(i: usize, j: usize, k: usize, t: usize) -> f64 {
+    (i + 10 * j + 100 * k + 1000 * t) as f64
+}
+
+/// The series as stored: x fastest, time slowest.
+fn series_values() -> Vec<f64> {
+    let [nx, ny, nz, nt] = SERIES;
+    (0..nx * ny * nz * nt)
+        .map(|n| series_value(n % nx, n / nx % ny, n / (nx * ny) % nz, n / (nx * ny * nz)))
+        .collect()
+}
+
+/// Checks that `volume` is frame `t` of the series: world voxel n holds the value stored at
+/// `stored(n)`, through `scale`.
+fn assert_series_frame(
+    volume: &Volume,
+    t: usize,
+    stored: impl Fn([usize; 3]) -> [usize; 3],
+    scale: impl Fn(f64) -> f64,
+    name: &str,
+) {
+    assert_eq!(volume.dims(), [5, 4, 3], "{name}");
+    for k in 0..3 {
+        for j in 0..4 {
+            for i in 0..5 {
+                let [si, sj, sk] = stored([i, j, k]);
+                assert_eq!(
+                    volume.at(i, j, k),
+                    scale(series_value(si, sj, sk, t)) as f32,
+                    "{name}: frame {t}, voxel [{i}, {j}, {k}]"
+                );
+            }
+        }
+    }
+}
+
+fn frame(t: usize) -> LoadOptions {
+    LoadOptions {
+        frame: Some(t),
+        ..opts()
+    }
+}
+
+/// A series of 3 read without a frame, and at frame 3, is refused with the count.
+fn assert_series_needs_a_frame(path: &Path) {
+    assert_mentions(
+        &failure(path, &opts()),
+        &[
+            "holds 3 time steps",
+            "a frame must be chosen",
+            "occlux series",
+        ],
+    );
+    assert_mentions(
+        &failure(path, &frame(3)),
+        &["frame 3 does not exist", "3 time steps (frames 0 to 2)"],
+    );
+}
+
+/// NRRD fields of the series: stored z runs down (slice k at z = 3 - 2 k); the time axis'
+/// `none` gives the frames no placement of their own.
+const SERIES_NRRD: [(&str, &str); 8] = [
+    ("type", "uint16"),
+    ("dimension", "4"),
+    ("sizes", "5 4 3 3"),
+    ("endian", "little"),
+    ("space", "right-anterior-superior"),
+    ("space directions", "(0.5,0,0) (0,0.25,0) (0,0,-2) none"),
+    ("space origin", "(1,2,3)"),
+    ("kinds", "domain domain domain time"),
+];
+
+/// World voxel n of the NRRD series is stored at z reversed.
+fn nrrd_series_stored([i, j, k]: [usize; 3]) -> [usize; 3] {
+    [i, j, 2 - k]
+}
+
+#[test]
+fn nrrd_series_reads_each_frame_raw_gzip_and_detached() {
+    let dir = tempfile::tempdir().unwrap();
+    let data = encode(ScalarType::U16, &series_values(), false);
+    let raw = with(&SERIES_NRRD, "encoding", "raw");
+    let attached = small_nrrd(dir.path(), "raw.nrrd", &raw, &data);
+    let gzipped = small_nrrd(
+        dir.path(),
+        "gzip.nrrd",
+        &with(&SERIES_NRRD, "encoding", "gzip"),
+        &gzip(&data),
+    );
+    // Detached, the series ending a data file after other bytes (byte skip -1).
+    let mut tail = b"junk".to_vec();
+    tail.extend(&data);
+    std::fs::write(dir.path().join("series.raw"), tail).unwrap();
+    let detached = small_nrrd(
+        dir.path(),
+        "tail.nhdr",
+        &with(&with(&raw, "data file", "series.raw"), "byte skip", "-1"),
+        &[],
+    );
+    for path in [&attached, &gzipped, &detached] {
+        let name = path.display().to_string();
+        assert_eq!(frame_count(path, &opts()).unwrap(), 3, "{name}");
+        for t in 0..3 {
+            let volume = load(path, &frame(t)).unwrap();
+            assert_eq!(volume.spacing(), Vec3::new(0.5, 0.25, 2.0), "{name}");
+            assert_eq!(volume.origin(), Vec3::new(1.0, 2.0, -1.0), "{name}");
+            assert_series_frame(&volume, t, nrrd_series_stored, |v| v, &name);
+        }
+        assert_series_needs_a_frame(path);
+    }
+}
+
+#[test]
+fn nrrd_series_frames_are_read_alone() {
+    let dir = tempfile::tempdir().unwrap();
+    let data = encode(ScalarType::U16, &series_values(), false);
+    let raw = with(&SERIES_NRRD, "encoding", "raw");
+    // Cut inside the last frame: the others read, the last says what is missing.
+    let cut = small_nrrd(dir.path(), "cut.nrrd", &raw, &data[..data.len() - 10]);
+    let volume = load(&cut, &frame(1)).unwrap();
+    assert_series_frame(&volume, 1, nrrd_series_stored, |v| v, "cut");
+    assert_mentions(
+        &failure(&cut, &frame(2)),
+        &[
+            "raw data of frame 2 of 3 truncated",
+            "need 120 bytes, found 110",
+        ],
+    );
+    // Bytes left over after the series show when its last frame is read.
+    let long = small_nrrd(
+        dir.path(),
+        "long.nrrd",
+        &raw,
+        &[&data[..], &[7, 7]].concat(),
+    );
+    let volume = load(&long, &frame(0)).unwrap();
+    assert_series_frame(&volume, 0, nrrd_series_stored, |v| v, "long");
+    assert_mentions(
+        &failure(&long, &frame(2)),
+        &["raw data of frame 2 of 3 longer than expected"],
+    );
+}
+
+#[test]
+fn nifti_series_reads_each_frame_scaled_from_nii_and_gz() {
+    let dir = tempfile::tempdir().unwrap();
+    let t = ty(ScalarType::I16);
+    let mut header = Nifti::new([5, 4, 3], t);
+    header.dim[0] = 4;
+    header.dim[4] = 3;
+    header.pixdim[4] = 0.7; // seconds between frames: nothing to a frame's placement
+    header.slope = 2.0;
+    header.inter = -1.0;
+    header.sform_code = 1;
+    // Stored x runs toward -x: column i sits at x = 4 - 0.5 i.
+    header.srow = [
+        [-0.5, 0.0, 0.0, 4.0],
+        [0.0, 0.25, 0.0, 2.0],
+        [0.0, 0.0, 2.0, 3.0],
+    ];
+    let file = header.bytes(&encode(t.scalar, &series_values(), false));
+    let nii = dir.path().join("series.nii");
+    std::fs::write(&nii, &file).unwrap();
+    let gz = dir.path().join("series.nii.gz");
+    std::fs::write(&gz, gzip(&file)).unwrap();
+    for path in [&nii, &gz] {
+        let name = path.display().to_string();
+        assert_eq!(frame_count(path, &opts()).unwrap(), 3, "{name}");
+        for t in 0..3 {
+            let volume = load(path, &frame(t)).unwrap();
+            assert_eq!(volume.spacing(), Vec3::new(0.5, 0.25, 2.0), "{name}");
+            assert_eq!(volume.origin(), Vec3::new(2.0, 2.0, 3.0), "{name}");
+            assert_series_frame(
+                &volume,
+                t,
+                |[i, j, k]| [4 - i, j, k],
+                |v| v * 2.0 - 1.0,
+                &name,
+            );
+        }
+        assert_series_needs_a_frame(path);
+    }
+}
+
+#[test]
+fn files_without_a_series_hold_one_frame() {
+    let dir = tempfile::tempdir().unwrap();
+    let values = values_for(ScalarType::U16, 64);
+    let data = encode(ScalarType::U16, &values, false);
+    let u8_data = encode(ScalarType::U8, &values_for(ScalarType::U8, 64), false);
+    let four_d = with(&U16_4X4X4, "dimension", "4");
+    let nifti = dir.path().join("volume.nii");
+    std::fs::write(
+        &nifti,
+        Nifti::new([4, 4, 4], ty(ScalarType::U8)).bytes(&u8_data),
+    )
+    .unwrap();
+    let mut one_time_point = Nifti::new([4, 4, 4], ty(ScalarType::U8));
+    one_time_point.dim[0] = 4;
+    let nifti_4d = dir.path().join("one.nii");
+    std::fs::write(&nifti_4d, one_time_point.bytes(&u8_data)).unwrap();
+    let npy = dir.path().join("volume.npy");
+    write_npy(&npy, 1, "<u2", false, &[4, 4, 4], &data);
+    let raw = dir.path().join("volume.raw");
+    std::fs::write(&raw, &data).unwrap();
+    let raw_spec = LoadOptions {
+        raw: Some(RawSpec {
+            dims: [4, 4, 4],
+            scalar: ScalarType::U16,
+            spacing: Vec3::ONE,
+            origin: Vec3::ZERO,
+            big_endian: false,
+            header_bytes: 0,
+        }),
+        ..opts()
+    };
+    let files = [
+        (small_nrrd(dir.path(), "3d.nrrd", &U16_4X4X4, &data), opts()),
+        // 4-D with one time step, or a size-1 first axis (a vector of one component, not
+        // 4 steps of a 1-voxel-wide volume).
+        (
+            small_nrrd(
+                dir.path(),
+                "last.nrrd",
+                &with(&four_d, "sizes", "4 4 4 1"),
+                &data,
+            ),
+            opts(),
+        ),
+        (
+            small_nrrd(
+                dir.path(),
+                "first.nrrd",
+                &with(&four_d, "sizes", "1 4 4 4"),
+                &data,
+            ),
+            opts(),
+        ),
+        (nifti, opts()),
+        (nifti_4d, opts()),
+        (npy, opts()),
+        (raw, raw_spec),
+    ];
+    for (path, options) in &files {
+        let name = path.display().to_string();
+        assert_eq!(frame_count(path, options).unwrap(), 1, "{name}");
+        let whole = load(path, options).unwrap();
+        let first = LoadOptions {
+            frame: Some(0),
+            ..options.clone()
+        };
+        assert_eq!(load(path, &first).unwrap(), whole, "{name}");
+        assert_eq!(whole.dims(), [4, 4, 4], "{name}");
+        let second = LoadOptions {
+            frame: Some(1),
+            ..options.clone()
+        };
+        assert_mentions(
+            &failure(path, &second),
+            &["frame 1 does not exist", "1 time step (frame 0 only)"],
+        );
+    }
+    assert_eq!(
+        load(&files[0].0, &opts()).unwrap().values(),
+        as_f32(&values)
+    );
+    // frame_count fails as the loaders do.
+    let missing = dir.path().join("missing.npy");
+    assert!(matches!(
+        frame_count(&missing, &opts()),
+        Err(Error::Io { .. })
+    ));
+    let unknown = dir.path().join("volume.tiff");
+    assert!(frame_count(&unknown, &opts())
+        .unwrap_err()
+        .to_string()
+        .contains("unsupported file extension"));
+}
+
+// ---------------------------------------------------------------------------------------------
 // Bad input: each names the file and the problem, and none panics.
 
 fn small_nrrd(dir: &Path, name: &str, fields: &[(&str, &str)], data: &[u8]) -> PathBuf {
@@ -840,9 +1126,22 @@ fn bad_nrrd_fields_are_named() {
             &["dimension: only 3-D", "got 2"],
         ),
         (
-            "dim4",
-            with(&with(&U16_4X4X4, "dimension", "4"), "sizes", "2 2 4 4"),
-            &["4-D array", "size 1"],
+            "vectorfirst",
+            with(
+                &with(&with(&U16_4X4X4, "dimension", "4"), "sizes", "2 2 4 4"),
+                "kinds",
+                "vector domain domain domain",
+            ),
+            &["kinds: axis 0", "'vector'", "per-voxel components"],
+        ),
+        (
+            "colourlast",
+            with(
+                &with(&with(&U16_4X4X4, "dimension", "4"), "sizes", "2 2 4 4"),
+                "kinds",
+                "domain domain domain RGBA-color",
+            ),
+            &["kinds: axis 3", "'RGBA-color'", "per-voxel components"],
         ),
         (
             "zero",
@@ -1143,7 +1442,19 @@ fn bad_nifti_headers_are_named() {
     let mut series = Nifti::new([2, 2, 2], t);
     series.dim[0] = 4;
     series.dim[4] = 3;
-    cases.push(("series", series, &["dim[4] = 3"]));
+    cases.push((
+        "series",
+        series,
+        &["holds 3 time steps", "frame must be chosen"],
+    ));
+    let mut components = Nifti::new([2, 2, 2], t);
+    components.dim[0] = 5;
+    components.dim[5] = 3;
+    cases.push((
+        "components",
+        components,
+        &["dim[5] = 3", "per-voxel components"],
+    ));
     let mut negative = Nifti::new([2, -2, 2], t);
     negative.pixdim[1] = 1.0;
     cases.push(("negative", negative, &["dim[2] = -2", "positive"]));

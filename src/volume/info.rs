@@ -3,10 +3,11 @@
 //! histogram whose bars are logarithmic in the count, so that a lone outlier voxel shows.
 //!
 //! Bad values do not stop it: the file is read with [`NonFinite::Census`], and the statistics
-//! are over the finite voxels only.
+//! are over the finite voxels only. Of a time series it says how many steps there are and
+//! describes the first.
 
 use super::loaders::NonFiniteVoxels;
-use super::{load_with_info, LoadOptions, NonFinite, Volume};
+use super::{frame_count, load_with_info, LoadOptions, NonFinite, Volume};
 use crate::classify::{Window, WindowReport};
 use crate::error::Result;
 use std::path::Path;
@@ -128,10 +129,13 @@ fn to_bin(v: f32, width: f32) -> String {
     format!("{v:.decimals$}")
 }
 
-/// Loads `file` and prints its description on standard output.
+/// Loads `file` (the first frame of a time series) and prints its description on standard
+/// output.
 pub fn print(file: &Path, options: &LoadOptions, suggest: bool) -> Result<()> {
+    let frames = frame_count(file, options)?;
     let options = LoadOptions {
         non_finite: NonFinite::Census,
+        frame: Some(0),
         ..options.clone()
     };
     let (vol, source) = load_with_info(file, &options)?;
@@ -152,6 +156,9 @@ pub fn print(file: &Path, options: &LoadOptions, suggest: bool) -> Result<()> {
         "dims      {nx} x {ny} x {nz} ({voxels} voxels, {:.1} MiB as f32)",
         voxels as f64 * 4.0 / (1 << 20) as f64
     );
+    if frames > 1 {
+        println!("time steps {frames} (occlux series reads each; info describes the first)");
+    }
     println!("spacing   {}", vol.spacing());
     println!("origin    {}", vol.origin());
     println!("bounds    {blo} .. {bhi}");

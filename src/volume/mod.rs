@@ -10,7 +10,8 @@ mod loaders;
 pub mod phantom;
 
 pub use loaders::{
-    load, load_with_info, Frame, LoadOptions, NonFinite, RawSpec, ScalarType, SourceInfo,
+    frame_count, load, load_with_info, Frame, LoadOptions, NonFinite, RawSpec, ScalarType,
+    SourceInfo,
 };
 
 use crate::error::{Error, Result};

@@ -6,6 +6,15 @@
 //! or decompressed; read exactly the payload's bytes ([`read_payload`]); convert them with the one
 //! shared [`decode`]; hand the values to [`finish`], which applies the [`NonFinite`] policy and
 //! builds the volume. Every error names the file.
+//!
+//! Time series: a 4-D NRRD (`sizes: X Y Z T`) or NIfTI-1 (`dim[0] = 4`, `dim[4] = T`) file
+//! holds T volumes one after another, time the last (slowest) axis. A loader reads one of them,
+//! [`LoadOptions::frame`], and only its bytes: earlier frames are passed over (sought past in a
+//! plain file, decompressed and discarded in a gzip stream), later ones are not read, so bytes
+//! missing from or left over after a series show when its last frame is read. Every frame has
+//! the 3-D placement (spacing, axes, origin) and, in NIfTI, the value scaling; the time axis'
+//! own spacing or direction is ignored. [`frame_count`] reads only the header. `occlux series`
+//! reads each frame.
 
 mod frame;
 mod nifti;
@@ -17,11 +26,13 @@ mod vdb_sizes;
 
 use super::{Volume, DEFAULT_MEMORY_BUDGET};
 use crate::error::{Error, Result};
+use flate2::bufread::GzDecoder;
 pub use frame::Frame;
 use frame::Placement;
 use glam::Vec3;
 use rayon::prelude::*;
-use std::io::{self, ErrorKind, Read};
+use std::fs::File;
+use std::io::{self, BufRead, BufReader, ErrorKind, Read, Seek, SeekFrom};
 use std::path::Path;
 
 /// How a file stores each voxel value.
@@ -157,6 +168,9 @@ pub struct LoadOptions {
     pub raw: Option<RawSpec>,
     /// Name of the grid to read from a `.vdb` file (default: the only or first float grid).
     pub grid: Option<String>,
+    /// The time step to read from a 4-D NRRD or NIfTI-1 file whose last axis counts them
+    /// (0-based; see [`frame_count`]). None reads a file with one frame, and refuses a series.
+    pub frame: Option<usize>,
 }
 
 impl Default for LoadOptions {
@@ -166,6 +180,7 @@ impl Default for LoadOptions {
             non_finite: NonFinite::Reject,
             raw: None,
             grid: None,
+            frame: None,
         }
     }
 }
@@ -206,24 +221,114 @@ pub fn load(path: &Path, opts: &LoadOptions) -> Result<Volume> {
 
 /// Loads a volume and says what the file held.
 pub fn load_with_info(path: &Path, opts: &LoadOptions) -> Result<(Volume, SourceInfo)> {
-    let name = path
-        .file_name()
-        .map(|n| n.to_string_lossy().to_ascii_lowercase())
-        .unwrap_or_default();
-    if name.ends_with(".nii.gz") {
-        return nifti::load(path, opts);
+    let format = Format::of(path)?;
+    if !format.has_time() {
+        TimeStep::chosen(path, 1, opts)?;
     }
-    let extension = name.rsplit_once('.').map_or("", |(_, ext)| ext);
-    match extension {
-        "nrrd" | "nhdr" => nrrd::load(path, opts),
-        "nii" => nifti::load(path, opts),
-        "vdb" => vdb::load(path, opts),
-        "raw" => raw::load(path, opts),
-        "npy" => npy::load(path, opts),
-        _ => Err(Error::format(
-            path,
-            format!("unsupported file extension (supported: {SUPPORTED})"),
-        )),
+    match format {
+        Format::Nrrd => nrrd::load(path, opts),
+        Format::Nifti => nifti::load(path, opts),
+        Format::Vdb => vdb::load(path, opts),
+        Format::Raw => raw::load(path, opts),
+        Format::Npy => npy::load(path, opts),
+    }
+}
+
+/// The time steps a file holds, from its header alone: T for a 4-D NRRD or NIfTI-1 series, 1
+/// for every other file (formats without a time axis are only opened). Errors as [`load`]'s.
+pub fn frame_count(path: &Path, opts: &LoadOptions) -> Result<usize> {
+    match Format::of(path)? {
+        Format::Nrrd => nrrd::frame_count(path, opts),
+        Format::Nifti => nifti::frame_count(path, opts),
+        Format::Vdb | Format::Raw | Format::Npy => {
+            File::open(path).map(|_| 1).map_err(|e| Error::io(path, e))
+        }
+    }
+}
+
+/// The formats, told apart by the file's extension.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Format {
+    Nrrd,
+    Nifti,
+    Vdb,
+    Raw,
+    Npy,
+}
+
+impl Format {
+    fn of(path: &Path) -> Result<Self> {
+        let name = path
+            .file_name()
+            .map(|n| n.to_string_lossy().to_ascii_lowercase())
+            .unwrap_or_default();
+        if name.ends_with(".nii.gz") {
+            return Ok(Format::Nifti);
+        }
+        match name.rsplit_once('.').map_or("", |(_, ext)| ext) {
+            "nrrd" | "nhdr" => Ok(Format::Nrrd),
+            "nii" => Ok(Format::Nifti),
+            "vdb" => Ok(Format::Vdb),
+            "raw" => Ok(Format::Raw),
+            "npy" => Ok(Format::Npy),
+            _ => Err(Error::format(
+                path,
+                format!("unsupported file extension (supported: {SUPPORTED})"),
+            )),
+        }
+    }
+
+    /// Whether the format can store a time series.
+    fn has_time(self) -> bool {
+        matches!(self, Format::Nrrd | Format::Nifti)
+    }
+}
+
+/// The time step a loader reads: frame `index` of the `count` stored one after another (a 3-D
+/// file holds one).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+struct TimeStep {
+    index: usize,
+    count: usize,
+}
+
+impl TimeStep {
+    /// The frame [`LoadOptions::frame`] names among a file's `count`; without one, the only
+    /// frame (a series is refused rather than read as its first frame unasked).
+    fn chosen(path: &Path, count: usize, opts: &LoadOptions) -> Result<Self> {
+        let index = match opts.frame {
+            None if count > 1 => {
+                return Err(Error::format(
+                    path,
+                    format!(
+                        "the file holds {count} time steps (a 4-D series): a frame must be \
+                         chosen, 0 to {} (`occlux series` reads each)",
+                        count - 1
+                    ),
+                ))
+            }
+            None => 0,
+            Some(index) if index >= count => {
+                let held = match count {
+                    1 => "1 time step (frame 0 only)".to_string(),
+                    _ => format!("{count} time steps (frames 0 to {})", count - 1),
+                };
+                return Err(Error::format(
+                    path,
+                    format!("frame {index} does not exist: the file holds {held}"),
+                ));
+            }
+            Some(index) => index,
+        };
+        Ok(Self { index, count })
+    }
+
+    /// `what` (the data's name in messages) with the frame, for a series.
+    fn name(self, what: &str) -> String {
+        match self.count {
+            1 => what.to_string(),
+            count => format!("{what} of frame {} of {count}", self.index),
+        }
     }
 }
 
@@ -343,6 +448,67 @@ fn read_payload(
             path,
             format!("{what} corrupt or truncated after its {expected} bytes: {e}"),
         )),
+    }
+}
+
+/// Passes over the frames before `step` in `reader`, then reads the frame's bytes (see
+/// [`read_payload`]; `what` names the data). A frame followed by others is read from a reader
+/// that ends with it, so that the later frames stay unread.
+fn read_frame(
+    path: &Path,
+    reader: &mut dyn Source,
+    what: &str,
+    layout: &Layout,
+    step: TimeStep,
+) -> Result<Vec<u8>> {
+    let frame_bytes = layout.byte_len as u64;
+    // A product past u64 cannot be in a file: passing over it fails on the file's end.
+    let before = frame_bytes.saturating_mul(step.index as u64);
+    reader.pass_over(
+        path,
+        before,
+        &format!("frame {} of {}", step.index, step.count),
+    )?;
+    let limit = if step.index + 1 < step.count {
+        frame_bytes
+    } else {
+        u64::MAX
+    };
+    read_payload(path, reader.take(limit), &step.name(what), layout)
+}
+
+/// A payload's stream that can pass over bytes without handing them out.
+trait Source: Read {
+    /// Moves `count` bytes on; `what` names the bytes in messages.
+    fn pass_over(&mut self, path: &Path, count: u64, what: &str) -> Result<()>;
+}
+
+/// A plain file seeks past the bytes unread.
+impl Source for BufReader<File> {
+    fn pass_over(&mut self, path: &Path, count: u64, what: &str) -> Result<()> {
+        let length = self
+            .get_ref()
+            .metadata()
+            .map_err(|e| Error::io(path, e))?
+            .len();
+        let position = self.stream_position().map_err(|e| Error::io(path, e))?;
+        let left = length.saturating_sub(position);
+        if left < count {
+            return Err(Error::format(
+                path,
+                format!("{what}: the file ends after {left} of the {count} bytes to skip"),
+            ));
+        }
+        self.seek(SeekFrom::Start(position + count))
+            .map(|_| ())
+            .map_err(|e| Error::io(path, e))
+    }
+}
+
+/// A gzip stream has no way past its bytes but decompressing them.
+impl<R: BufRead> Source for GzDecoder<R> {
+    fn pass_over(&mut self, path: &Path, count: u64, what: &str) -> Result<()> {
+        skip(path, self, count, what)
     }
 }
 

@@ -2,10 +2,13 @@
 //! the 348-byte header (and detects its byte order); the data goes through the shared reader and
 //! converter like every other format.
 //!
-//! - dims: `dim[1..=3]`; `dim[0]` may exceed 3 when every axis beyond the third has size 1
-//!   (e.g. a 4-D file with one time point).
-//! - values: `value * scl_slope + scl_inter` when `scl_slope` is finite and non-zero; 0 or NaN
-//!   mean "no scaling" (FSL writes 0, nibabel NaN), and a NaN `scl_inter` counts as 0.
+//! - dims: `dim[1..=3]`; with `dim[0]` >= 4, `dim[4]` counts time steps, one frame of which is
+//!   read ([`LoadOptions::frame`](super::LoadOptions::frame); one time point: the only one), and
+//!   every axis beyond the fourth (per-voxel components) must have size 1. `pixdim[4]` (the
+//!   time step) is ignored.
+//! - values (of every frame): `value * scl_slope + scl_inter` when `scl_slope` is finite and
+//!   non-zero; 0 or NaN mean "no scaling" (FSL writes 0, nibabel NaN), and a NaN `scl_inter`
+//!   counts as 0.
 //! - geometry: the sform when `sform_code > 0`, else the qform when `qform_code > 0`, else
 //!   `pixdim` spacing with the origin at 0. The affine's columns and translation go through
 //!   [`Placement::from_frame`] (see [`super::frame`]): spacing is each column's length; axes
@@ -17,8 +20,8 @@
 //! integer data.
 
 use super::{
-    check_spacing, decode, finish, read_payload, skip, Layout, LoadOptions, Placement, ScalarType,
-    SourceInfo,
+    check_spacing, decode, finish, read_frame, skip, Layout, LoadOptions, Placement, ScalarType,
+    Source, SourceInfo, TimeStep,
 };
 use crate::error::{Error, Result};
 use crate::volume::Volume;
@@ -27,54 +30,85 @@ use flate2::bufread::GzDecoder;
 use glam::Vec3;
 use rayon::prelude::*;
 use std::fs::File;
-use std::io::{BufReader, ErrorKind, Read};
+use std::io::{BufReader, ErrorKind};
 use std::path::Path;
 
 /// Bytes of a NIfTI-1 header; the data starts at `vox_offset`, after any extensions.
 const HEADER_BYTES: u64 = 348;
 
 pub(super) fn load(path: &Path, opts: &LoadOptions) -> Result<(Volume, SourceInfo)> {
-    let reader = BufReader::new(File::open(path).map_err(|e| Error::io(path, e))?);
-    let gzipped = path.to_string_lossy().to_ascii_lowercase().ends_with(".gz");
-    if gzipped {
-        load_from(path, GzDecoder::new(reader), opts)
-    } else {
-        load_from(path, reader, opts)
-    }
-}
-
-fn load_from(
-    path: &Path,
-    mut reader: impl Read,
-    opts: &LoadOptions,
-) -> Result<(Volume, SourceInfo)> {
-    let header = NiftiHeader::from_reader(&mut reader).map_err(|e| header_error(path, e))?;
-    check_kind(path, &header)?;
-    let dims = dims(path, &header)?;
-    let scalar = scalar_type(path, header.datatype)?;
-    let big_endian = header.endianness == Endianness::Big;
-    let layout = Layout::checked(path, dims, scalar, big_endian, opts)?;
-    let placement = placement(path, &header, dims)?;
-    skip(
-        path,
-        &mut reader,
-        data_offset(path, header.vox_offset)? - HEADER_BYTES,
-        "vox_offset",
-    )?;
-    let bytes = read_payload(path, reader, "NIfTI data", &layout)?;
+    let mut file = open(path)?;
+    let mut reader = file.as_mut();
+    let Parsed {
+        header,
+        layout,
+        placement,
+        frames,
+        data_start,
+    } = Parsed::read(path, reader, opts)?;
+    let step = TimeStep::chosen(path, frames, opts)?;
+    skip(path, &mut reader, data_start - HEADER_BYTES, "vox_offset")?;
+    let bytes = read_frame(path, reader, "NIfTI data", &layout, step)?;
     let mut values = decode(&bytes, &layout);
     drop(bytes);
     rescale(&mut values, header.scl_slope, header.scl_inter);
-    let (volume, non_finite) = finish(path, dims, placement, values, opts)?;
+    let (volume, non_finite) = finish(path, layout.dims, placement, values, opts)?;
     let info = SourceInfo {
         format: "NIfTI-1",
-        scalar: scalar.name().to_string(),
+        scalar: layout.scalar.name().to_string(),
         grid: None,
         non_finite,
         frame: placement.frame(),
-        hounsfield: hounsfield(&header, scalar),
+        hounsfield: hounsfield(&header, layout.scalar),
     };
     Ok((volume, info))
+}
+
+/// The time steps the header describes.
+pub(super) fn frame_count(path: &Path, opts: &LoadOptions) -> Result<usize> {
+    Parsed::read(path, open(path)?.as_mut(), opts).map(|parsed| parsed.frames)
+}
+
+/// The file's bytes, decompressed on the fly when it is gzipped.
+fn open(path: &Path) -> Result<Box<dyn Source>> {
+    let reader = BufReader::new(File::open(path).map_err(|e| Error::io(path, e))?);
+    let gzipped = path.to_string_lossy().to_ascii_lowercase().ends_with(".gz");
+    Ok(if gzipped {
+        Box::new(GzDecoder::new(reader))
+    } else {
+        Box::new(reader)
+    })
+}
+
+/// The header, checked as far as anything can be before the data: one frame's payload and
+/// its placement, the time steps, and where the first frame starts.
+struct Parsed {
+    header: NiftiHeader,
+    layout: Layout,
+    placement: Placement,
+    frames: usize,
+    data_start: u64,
+}
+
+impl Parsed {
+    /// Reads the 348-byte header from the start of `reader`.
+    fn read(path: &Path, reader: &mut dyn Source, opts: &LoadOptions) -> Result<Self> {
+        let header = NiftiHeader::from_reader(reader).map_err(|e| header_error(path, e))?;
+        check_kind(path, &header)?;
+        let (dims, frames) = dims(path, &header)?;
+        let scalar = scalar_type(path, header.datatype)?;
+        let big_endian = header.endianness == Endianness::Big;
+        let layout = Layout::checked(path, dims, scalar, big_endian, opts)?;
+        let placement = placement(path, &header, dims)?;
+        let data_start = data_offset(path, header.vox_offset)?;
+        Ok(Self {
+            header,
+            layout,
+            placement,
+            frames,
+            data_start,
+        })
+    }
 }
 
 /// Rescale intercepts that DICOM CT series carry into NIfTI (dcm2niix writes the series'
@@ -136,14 +170,15 @@ fn check_kind(path: &Path, header: &NiftiHeader) -> Result<()> {
     Ok(())
 }
 
-fn dims(path: &Path, header: &NiftiHeader) -> Result<[usize; 3]> {
+/// The dims of one frame and the time steps.
+fn dims(path: &Path, header: &NiftiHeader) -> Result<([usize; 3], usize)> {
     // The standard declares dim as signed 16-bit; the crate reads it unsigned.
     let dim = header.dim.map(|d| d as i16);
     let rank = dim[0];
     if !(3..=7).contains(&rank) {
         return Err(Error::format(
             path,
-            format!("dim[0] = {rank}: only 3-D volumes are supported (or 4-D with one time point)"),
+            format!("dim[0] = {rank}: only 3-D volumes and 4-D time series are supported"),
         ));
     }
     let rank = rank as usize;
@@ -153,16 +188,19 @@ fn dims(path: &Path, header: &NiftiHeader) -> Result<[usize; 3]> {
             format!("dim[{a}] = {}: sizes must be positive", dim[a]),
         ));
     }
-    if let Some(a) = (4..=rank).find(|&a| dim[a] != 1) {
+    if let Some(a) = (5..=rank).find(|&a| dim[a] != 1) {
         return Err(Error::format(
             path,
             format!(
-                "dim[{a}] = {}: only one 3-D volume is supported (axes beyond the third must have size 1)",
+                "dim[{a}] = {}: per-voxel components are not supported (axes beyond the fourth, \
+                 time, must have size 1)",
                 dim[a]
             ),
         ));
     }
-    Ok([dim[1], dim[2], dim[3]].map(|d| d as usize))
+    // dim[4] means nothing below rank 4 (writers leave anything there).
+    let frames = if rank >= 4 { dim[4] as usize } else { 1 };
+    Ok(([dim[1], dim[2], dim[3]].map(|d| d as usize), frames))
 }
 
 /// NIfTI-1 datatype codes (nifti1.h) of the supported types.

@@ -1,23 +1,27 @@
 //! NRRD files: `.nrrd` with an attached header, or a `.nhdr` header whose `data file` names the
 //! data.
 //!
-//! Supported: magics NRRD0001 to NRRD0005; `dimension` 3, or 4 when the first or last axis has
-//! size 1 (that axis is dropped); every [`ScalarType`] under NRRD's spellings; `raw` and `gzip`
-//! encodings; `endian` (required for multi-byte types); `spacings`, or `space directions` with
-//! `space origin`; `data file` (one file, relative to the header's folder); `line skip` (lines of
-//! the data file before the data); `byte skip` (bytes before the data, counted in the
-//! decompressed stream for gzip; -1 with raw means the data ends the file). Spacing defaults to 1
-//! and the origin to 0. `space directions` go through [`Placement::from_frame`] (see
-//! [`super::frame`]: permuted and flipped axes are reordered exactly, oblique frames resampled).
-//! `space` names the frame of `space directions` and `space origin`: the anatomical spaces
-//! (`right-anterior-superior` or `RAS`, `left-posterior-superior` or `LPS`, the `LAS` kind and
-//! their `-time` forms) are turned into RAS, NIfTI's world frame, so that a scan written by
-//! 3D Slicer (LPS) and the same scan as NIfTI land in the same place; `scanner-xyz` and
-//! `3D-right-handed` are taken as they are; a left-handed space is refused (it would mirror).
+//! Supported: magics NRRD0001 to NRRD0005; `dimension` 3, or 4 (see [`spatial_axes`]): a size-1
+//! first axis is dropped (a vector of one component), else the last axis counts time steps, of
+//! which one frame is read ([`LoadOptions::frame`](super::LoadOptions::frame); with size 1, the
+//! only one) and whose `spacings` or `space directions` entry is ignored; a 4-D array whose `kinds`
+//! name per-voxel components (a vector or colour axis) is refused; every [`ScalarType`] under
+//! NRRD's spellings; `raw` and `gzip` encodings; `endian` (required for multi-byte types);
+//! `spacings`, or `space directions` with `space origin`; `data file` (one file, relative to the
+//! header's folder); `line skip` (lines of the data file before the data); `byte skip` (bytes
+//! before the data, counted in the decompressed stream for gzip; -1 with raw means the data ends
+//! the file). Spacing defaults to 1 and the origin to 0. `space directions` go through
+//! [`Placement::from_frame`] (see [`super::frame`]: permuted and flipped axes are reordered
+//! exactly, oblique frames resampled). `space` names the frame of `space directions` and
+//! `space origin`: the anatomical spaces (`right-anterior-superior` or `RAS`,
+//! `left-posterior-superior` or `LPS`, the `LAS` kind and their `-time` forms) are turned into RAS,
+//! NIfTI's world frame, so that a scan written by 3D Slicer (LPS) and the same scan as NIfTI land
+//! in the same place; `scanner-xyz` and `3D-right-handed` are taken as they are; a left-handed
+//! space is refused (it would mirror).
 
 use super::{
-    check_spacing, decode, finish, read_payload, skip, Layout, LoadOptions, Placement, ScalarType,
-    SourceInfo,
+    check_spacing, decode, finish, read_frame, skip, Layout, LoadOptions, Placement, ScalarType,
+    SourceInfo, TimeStep,
 };
 use crate::error::{Error, Result};
 use crate::volume::Volume;
@@ -31,14 +35,13 @@ use std::path::{Path, PathBuf};
 const MAX_HEADER_BYTES: u64 = 1 << 20;
 
 pub(super) fn load(path: &Path, opts: &LoadOptions) -> Result<(Volume, SourceInfo)> {
-    let mut reader = BufReader::new(File::open(path).map_err(|e| Error::io(path, e))?);
-    let fields = read_fields(path, &mut reader)?;
-    let header = Header::parse(path, &fields, opts)?;
+    let (reader, fields, header) = open(path, opts)?;
+    let step = TimeStep::chosen(path, header.frames, opts)?;
     let bytes = match &header.data_file {
-        None => read_data(path, reader, &header)?,
+        None => read_data(path, reader, &header, step)?,
         Some(data) => {
             let file = File::open(data).map_err(|e| Error::io(data, e))?;
-            read_data(data, BufReader::new(file), &header)?
+            read_data(data, BufReader::new(file), &header, step)?
         }
     };
     let values = decode(&bytes, &header.layout);
@@ -56,6 +59,19 @@ pub(super) fn load(path: &Path, opts: &LoadOptions) -> Result<(Volume, SourceInf
             .map(|units| format!("NRRD sample units \"{units}\"")),
     };
     Ok((volume, info))
+}
+
+/// The time steps the header describes.
+pub(super) fn frame_count(path: &Path, opts: &LoadOptions) -> Result<usize> {
+    open(path, opts).map(|(_, _, header)| header.frames)
+}
+
+/// Opens a NRRD file and reads its header, leaving the reader at the first byte after it.
+fn open(path: &Path, opts: &LoadOptions) -> Result<(BufReader<File>, Fields, Header)> {
+    let mut reader = BufReader::new(File::open(path).map_err(|e| Error::io(path, e))?);
+    let fields = read_fields(path, &mut reader)?;
+    let header = Header::parse(path, &fields, opts)?;
+    Ok((reader, fields, header))
 }
 
 /// Header fields by lower-case name; key/value pairs (`key:=value`) and comments are skipped.
@@ -145,7 +161,10 @@ enum Encoding {
 
 /// What the header says about the data and where it is.
 struct Header {
+    /// One frame's payload.
     layout: Layout,
+    /// Time steps (see [`spatial_axes`]).
+    frames: usize,
     placement: Placement,
     encoding: Encoding,
     data_file: Option<PathBuf>,
@@ -166,7 +185,7 @@ impl Header {
             )
         })?;
         let sizes = parse_sizes(path, required(path, fields, "sizes")?, dimension)?;
-        let kept = spatial_axes(path, &sizes)?;
+        let (kept, frames) = spatial_axes(path, &sizes, fields)?;
         let dims = kept.map(|a| sizes[a]);
 
         let type_name = required(path, fields, "type")?;
@@ -245,6 +264,7 @@ impl Header {
         };
         Ok(Self {
             layout,
+            frames,
             placement,
             encoding,
             data_file,
@@ -266,8 +286,8 @@ fn parse_sizes(path: &Path, text: &str, dimension: usize) -> Result<Vec<usize>> 
         return Err(Error::format(
             path,
             format!(
-                "dimension: only 3-D volumes are supported (or 4-D with a size-1 first or last \
-                 axis), got {dimension}"
+                "dimension: only 3-D volumes are supported (or 4-D: a time series along the \
+                 last axis, or a size-1 first axis), got {dimension}"
             ),
         ));
     }
@@ -296,20 +316,42 @@ fn parse_sizes(path: &Path, text: &str, dimension: usize) -> Result<Vec<usize>> 
     Ok(sizes)
 }
 
-/// The three axes that hold the volume: all of a 3-D array, or the 4-D array's axes minus a
-/// size-1 first or last one.
-fn spatial_axes(path: &Path, sizes: &[usize]) -> Result<[usize; 3]> {
-    match sizes {
-        [_, _, _] => Ok([0, 1, 2]),
-        [1, _, _, _] => Ok([1, 2, 3]),
-        [_, _, _, 1] => Ok([0, 1, 2]),
-        _ => Err(Error::format(
-            path,
-            format!(
-                "sizes: a 4-D array is supported only when its first or last axis has size 1, got {sizes:?}"
-            ),
-        )),
+/// The three axes that hold the volume, and the time steps: all of a 3-D array (one step); of a
+/// 4-D array, the last three after a size-1 first axis (one step, as a vector of one component
+/// was always read), else the first three, the last axis counting the steps. A series is
+/// refused when `kinds` say it holds per-voxel components, which would otherwise be read as
+/// space or time.
+fn spatial_axes(path: &Path, sizes: &[usize], fields: &Fields) -> Result<([usize; 3], usize)> {
+    match *sizes {
+        [1, _, _, _] => Ok(([1, 2, 3], 1)),
+        [_, _, _, frames] => match component_axis(fields) {
+            Some((axis, kind)) if frames > 1 => Err(Error::format(
+                path,
+                format!(
+                    "kinds: axis {axis} of the 4-D array {sizes:?} is '{kind}', not space or \
+                     time: per-voxel components are not supported (a 4-D array is read as a \
+                     time series along its last axis, or with a size-1 first axis)"
+                ),
+            )),
+            _ => Ok(([0, 1, 2], frames)),
+        },
+        // 3-D: parse_sizes passes no other.
+        _ => Ok(([0, 1, 2], 1)),
     }
+}
+
+/// The first axis of a 4-D array whose `kinds` entry is not one a time series has there (space,
+/// or unknown; time or a list last), with that kind.
+fn component_axis(fields: &Fields) -> Option<(usize, &str)> {
+    let spatial = |kind: &str| matches!(kind, "domain" | "space" | "???" | "none");
+    fields
+        .get("kinds")?
+        .split_whitespace()
+        .enumerate()
+        .find(|&(axis, kind)| {
+            let kind = kind.to_ascii_lowercase();
+            !(spatial(&kind) || axis == 3 && matches!(kind.as_str(), "time" | "list"))
+        })
 }
 
 /// Spacing and origin from `space directions` (+ `space origin`), else `spacings`, else unit.
@@ -479,9 +521,14 @@ fn data_file_path(path: &Path, name: &str) -> Result<PathBuf> {
     Ok(path.parent().unwrap_or(Path::new("")).join(name))
 }
 
-/// Skips `line skip` lines and `byte skip` bytes, then reads the payload from `data_path` (the
+/// Skips `line skip` lines and `byte skip` bytes, then reads frame `step` from `data_path` (the
 /// header's own file when the data is attached).
-fn read_data(data_path: &Path, mut reader: BufReader<File>, header: &Header) -> Result<Vec<u8>> {
+fn read_data(
+    data_path: &Path,
+    mut reader: BufReader<File>,
+    header: &Header,
+    step: TimeStep,
+) -> Result<Vec<u8>> {
     for skipped in 0..header.line_skip {
         if reader
             .skip_until(b'\n')
@@ -500,11 +547,11 @@ fn read_data(data_path: &Path, mut reader: BufReader<File>, header: &Header) -> 
     match header.encoding {
         Encoding::Raw => {
             if header.byte_skip == -1 {
-                seek_to_trailing_data(data_path, &mut reader, &header.layout)?;
+                seek_to_trailing_data(data_path, &mut reader, header)?;
             } else {
                 skip(data_path, &mut reader, header.byte_skip as u64, "byte skip")?;
             }
-            read_payload(data_path, reader, "raw data", &header.layout)
+            read_frame(data_path, &mut reader, "raw data", &header.layout, step)
         }
         Encoding::Gzip => {
             let mut decoder = GzDecoder::new(reader);
@@ -514,25 +561,29 @@ fn read_data(data_path: &Path, mut reader: BufReader<File>, header: &Header) -> 
                 header.byte_skip as u64,
                 "byte skip",
             )?;
-            read_payload(data_path, decoder, "gzip data", &header.layout)
+            read_frame(data_path, &mut decoder, "gzip data", &header.layout, step)
         }
     }
 }
 
-/// `byte skip: -1`: the data is the last bytes of the file.
-fn seek_to_trailing_data(path: &Path, reader: &mut BufReader<File>, layout: &Layout) -> Result<()> {
+/// `byte skip: -1`: the data, every frame of it, is the last bytes of the file.
+fn seek_to_trailing_data(path: &Path, reader: &mut BufReader<File>, header: &Header) -> Result<()> {
     let length = reader
         .get_ref()
         .metadata()
         .map_err(|e| Error::io(path, e))?
         .len();
-    let needed = layout.byte_len as u64;
+    let needed = (header.layout.byte_len as u64).saturating_mul(header.frames as u64);
     if length < needed {
+        let frames = match header.frames {
+            1 => String::new(),
+            n => format!("{n} frames of "),
+        };
         return Err(Error::format(
             path,
             format!(
-                "raw data truncated: {} need {needed} bytes, the whole file has {length}",
-                layout.describe()
+                "raw data truncated: {frames}{} need {needed} bytes, the whole file has {length}",
+                header.layout.describe()
             ),
         ));
     }
