@@ -11,7 +11,7 @@ use crate::gpu::{Compute, DeviceChoice};
 use crate::progress::{self, report_written, say, Bar, Progress};
 use crate::render::ao_shaded::{AO_GRID, AO_OCTANT_GRIDS, AO_VARIANCE_GRID, SDF_GRID};
 use crate::render::reference::{Estimator, ReferenceImage, ReferenceParams};
-use crate::render::{MethodInput, RenderImage, Rendered};
+use crate::render::{Grid, MethodInput, RenderImage, Rendered};
 use crate::scene::Scene;
 use crate::volume::Volume;
 use std::collections::BTreeMap;
@@ -243,7 +243,7 @@ pub fn export(
 ) -> Result<Vec<PathBuf>> {
     let vdb_name = format!("{stem}.vdb");
     let extinction = scene.classification.extinction(volume)?;
-    let grids = export_grids(rendered, &extinction, volume);
+    let grids = export_grids(&rendered.grids, &extinction, volume);
     let names: Vec<&str> = grids.iter().map(|g| g.name).collect();
     let stage = StageDescription::new(
         &vdb_name,
@@ -264,9 +264,9 @@ pub fn export(
 }
 
 /// The grids an export writes: `density` (the classified `extinction`), `value` (`volume`) and
-/// the grids the method computed.
+/// the grids the method computed (`method_grids`).
 pub fn export_grids<'a>(
-    rendered: &'a Rendered,
+    method_grids: &'a [Grid],
     extinction: &'a Volume,
     volume: &'a Volume,
 ) -> Vec<VdbGrid<'a>> {
@@ -275,8 +275,7 @@ pub fn export_grids<'a>(
         VdbGrid::from_volume(EXPORT_GRIDS[1], volume),
     ];
     grids.extend(
-        rendered
-            .grids
+        method_grids
             .iter()
             .map(|grid| vdb_grid(grid.name, &grid.volume)),
     );

@@ -250,6 +250,8 @@ struct VolumeSection {
     memory_budget_gib: Option<f64>,
     /// A series: a shell pattern or folder, or a list of files.
     frames: Option<FrameSpec>,
+    /// The time step of a 4-D file to read (0-based).
+    time: Option<usize>,
 }
 
 #[derive(Deserialize)]
@@ -499,6 +501,7 @@ impl VolumeSection {
         }
         let mut options = LoadOptions {
             grid: self.grid,
+            frame: self.time,
             ..LoadOptions::default()
         };
         if let Some(x) = self.replace_non_finite {

@@ -1172,3 +1172,48 @@ fn a_folder_that_cannot_be_made_is_refused_before_rendering() {
         );
     }
 }
+
+#[test]
+fn series_refuses_a_gap_or_an_impossible_request_before_writing() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = dir.path().join("s.toml");
+    std::fs::write(
+        &scene,
+        "[volume]\nphantom = \"sphere\"\nsize = 8\n[camera]\nwidth = 8\nheight = 8\n",
+    )
+    .unwrap();
+    for n in [1, 2, 4] {
+        let raw = dir.path().join(format!("f{n}.raw"));
+        std::fs::write(raw, [0u8; 8]).unwrap();
+    }
+    let out = dir.path().join("out");
+    let pattern = dir.path().join("f*.raw");
+    let run = occlux(&[
+        "series",
+        scene.to_str().unwrap(),
+        "--frames",
+        pattern.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+    ]);
+    let stderr = String::from_utf8_lossy(&run.stderr);
+    assert!(
+        !run.status.success() && stderr.contains("misses f3.raw"),
+        "{stderr}"
+    );
+    let run = occlux(&[
+        "series",
+        scene.to_str().unwrap(),
+        "--render",
+        "--ao",
+        "cdf",
+        "-o",
+        out.to_str().unwrap(),
+    ]);
+    let stderr = String::from_utf8_lossy(&run.stderr);
+    assert!(
+        !run.status.success() && stderr.contains("needs the export"),
+        "{stderr}"
+    );
+    assert!(!out.exists(), "nothing written");
+}

@@ -16,8 +16,13 @@ const SIDE: usize = 20;
 
 /// A raw little-endian float NRRD of `SIDE`^3 voxels.
 fn write_nrrd(path: &Path, values: &[f32]) {
+    write_nrrd_sized(path, [SIDE; 3], values);
+}
+
+/// A raw little-endian float NRRD of `sizes` voxels.
+fn write_nrrd_sized(path: &Path, [x, y, z]: [usize; 3], values: &[f32]) {
     let mut bytes = format!(
-        "NRRD0004\ntype: float\ndimension: 3\nsizes: {SIDE} {SIDE} {SIDE}\nencoding: raw\n\
+        "NRRD0004\ntype: float\ndimension: 3\nsizes: {x} {y} {z}\nencoding: raw\n\
          endian: little\nspacings: 1 1 1\n\n"
     )
     .into_bytes();
@@ -237,15 +242,7 @@ fn bad_series_are_refused_before_any_work() {
     // A frame of other dims, named, and nothing written.
     let odd = data.path().join("step_07.nrrd");
     let small: Vec<f32> = ball(6).into_iter().take(SIDE * SIDE * (SIDE - 1)).collect();
-    let header = std::fs::read(&odd).unwrap();
-    let text = String::from_utf8_lossy(&header[..120]).replace(
-        &format!("sizes: {SIDE} {SIDE} {SIDE}"),
-        &format!("sizes: {SIDE} {SIDE} {}", SIDE - 1),
-    );
-    let end = text.find("\n\n").unwrap() + 2;
-    let mut bytes = text[..end].as_bytes().to_vec();
-    bytes.extend(small.iter().flat_map(|v| v.to_le_bytes()));
-    std::fs::write(&odd, bytes).unwrap();
+    write_nrrd_sized(&odd, [SIDE, SIDE, SIDE - 1], &small);
     let message = plan(&scene, &out).unwrap_err().to_string();
     assert!(
         message.contains("step_07.nrrd") && message.contains("dims [20, 20, 19]"),
@@ -276,4 +273,78 @@ fn bad_series_are_refused_before_any_work() {
     .unwrap_err()
     .to_string();
     assert!(message.contains("other scene settings"), "{message}");
+}
+
+#[test]
+fn a_4d_file_is_a_series_of_its_time_steps() {
+    let data = tempfile::tempdir().unwrap();
+    let steps = 4;
+    // The first four frames as 3-D files, and the same as one X Y Z T file.
+    let mut all = Vec::new();
+    for t in 0..steps {
+        write_nrrd(
+            &data.path().join(format!("step_{:02}.nrrd", t + 1)),
+            &ball(t),
+        );
+        all.extend(ball(t));
+    }
+    let mut bytes = format!(
+        "NRRD0004\ntype: float\ndimension: 4\nsizes: {SIDE} {SIDE} {SIDE} {steps}\n\
+         encoding: raw\nendian: little\nspacings: 1 1 1 NaN\n\n"
+    )
+    .into_bytes();
+    bytes.extend(all.iter().flat_map(|v| v.to_le_bytes()));
+    std::fs::write(data.path().join("steps.nrrd"), bytes).unwrap();
+    let scene = data.path().join("ball.toml");
+    std::fs::write(&scene, SCENE).unwrap();
+    let four_d = data.path().join("four.toml");
+    std::fs::write(
+        &four_d,
+        SCENE.replace("frames = \"step_*.nrrd\"", "path = \"steps.nrrd\""),
+    )
+    .unwrap();
+
+    let (files, one) = (data.path().join("files"), data.path().join("one"));
+    let (manifest, _) = plan(&scene, &files).unwrap();
+    series::run(&manifest, &files, &Compute::Cpu, true).unwrap();
+    let (manifest, _) = plan(&four_d, &one).unwrap();
+    let times: Vec<Option<usize>> = manifest.frames.iter().map(|f| f.time).collect();
+    assert_eq!(times, [Some(0), Some(1), Some(2), Some(3)]);
+    series::run(&manifest, &one, &Compute::Cpu, true).unwrap();
+    // The same frames, the same files; only the manifests' sources differ.
+    let without_manifest = |dir: &Path| {
+        let mut c = contents(dir);
+        c.retain(|(name, _)| !name.ends_with(".series.json"));
+        c
+    };
+    let expected = without_manifest(&files);
+    assert_eq!(expected.len(), 3 * steps + 1);
+    assert!(expected == without_manifest(&one));
+}
+
+#[test]
+fn a_scene_lists_its_frames_in_the_order_it_wants() {
+    let data = tempfile::tempdir().unwrap();
+    make_series(data.path());
+    let listed = data.path().join("listed.toml");
+    std::fs::write(
+        &listed,
+        SCENE.replace(
+            "frames = \"step_*.nrrd\"",
+            "frames = [\"step_03.nrrd\", \"step_01.nrrd\"]",
+        ),
+    )
+    .unwrap();
+    let (manifest, _) = plan(&listed, &data.path().join("out")).unwrap();
+    let names: Vec<_> = manifest
+        .frames
+        .iter()
+        .map(|f| f.source.file_name().unwrap().to_string_lossy().into_owned())
+        .collect();
+    assert_eq!(names, ["step_03.nrrd", "step_01.nrrd"]);
+    // Without `path`, a single render shows the first listed frame.
+    let scene = Scene::from_file(&listed).unwrap();
+    assert!(
+        matches!(&scene.volume.kind, occlux::scene::SourceKind::File(p) if p.ends_with("step_03.nrrd"))
+    );
 }

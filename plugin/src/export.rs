@@ -13,16 +13,20 @@ use std::path::PathBuf;
 
 /// The USD stage for `volume`'s grids `grids`, stored in `vdb_file` (a path relative to the
 /// stage), with `scene`'s camera and lights: a JSON string that `occlux.usd` authors with pxr.
+/// With `frames` (VDB files relative to the stage), a series' stage: the fields read
+/// `frames[i]` at time code i + 1, as `occlux series` writes it.
 #[pyfunction]
+#[pyo3(signature = (scene, volume, vdb_file, grids, frames = None))]
 pub fn stage_description(
     scene: &PyScene,
     volume: &PyVolume,
     vdb_file: &str,
     grids: Vec<String>,
+    frames: Option<Vec<String>>,
 ) -> PyResult<String> {
     let grids: Vec<&str> = grids.iter().map(String::as_str).collect();
     let scene = &scene.inner;
-    let description = StageDescription::new(
+    let mut description = StageDescription::new(
         vdb_file,
         &grids,
         volume.inner.bounds(),
@@ -30,6 +34,9 @@ pub fn stage_description(
         &scene.lighting.lights,
     )
     .map_err(py_err)?;
+    if let Some(frames) = frames {
+        description = description.with_time_samples(1, &frames).map_err(py_err)?;
+    }
     Ok(description.to_json())
 }
 

@@ -30,8 +30,8 @@ use crate::gpu::Compute;
 use crate::pipeline::{self, header_metadata, OutputOptions, EXPORT_GRIDS};
 use crate::progress::{say, Bar, NoProgress, Progress};
 use crate::render::ao_shaded::AO_GRID;
-use crate::scene::{Centre, Scene};
-use crate::volume::Volume;
+use crate::scene::{Centre, Scene, SourceKind};
+use crate::volume::{self, LoadOptions, Volume};
 use glam::Vec3;
 use serde::{Deserialize, Serialize};
 use serde_json::Value;
@@ -166,19 +166,21 @@ pub fn plan(
     if let Some(volume) = tree.get_mut("volume").and_then(Value::as_object_mut) {
         volume.remove("frames");
     }
-    let sources = match frames.or_else(|| scene.volume.frames.clone()) {
-        Some(list) => list,
-        None => {
+    let files = match (
+        frames.or_else(|| scene.volume.frames.clone()),
+        &scene.volume.kind,
+    ) {
+        (Some(list), _) => list,
+        // No frames named: the scene's own file, a 4-D file's time steps.
+        (None, SourceKind::File(path)) => vec![path.clone()],
+        (None, SourceKind::Phantom { .. }) => {
             return Err(Error::param(
                 "frames",
                 "no frames: give --frames (a pattern, a folder or files) or volume.frames",
             ))
         }
     };
-    let sources: Vec<PathBuf> = sources
-        .iter()
-        .map(|p| std::path::absolute(p).map_err(|e| Error::io(p, e)))
-        .collect::<Result<_>>()?;
+    let sources = time_steps(&files, &scene)?;
     let fixed = fix_across(&tree, &base, &scene, &sources, quiet)?;
     let grids = if options.export {
         grid_names(&scene, options)?
@@ -188,10 +190,10 @@ pub fn plan(
     let entries = sources
         .iter()
         .zip(1u32..)
-        .map(|(source, number)| FrameEntry {
+        .map(|((source, time), number)| FrameEntry {
             frame: number,
             source: source.clone(),
-            time: None,
+            time: *time,
             vdb: options.export.then(|| frame_file(name, number, "vdb")),
             exr: options.render.then(|| frame_file(name, number, "exr")),
             png: options.render.then(|| frame_file(name, number, "png")),
@@ -220,6 +222,27 @@ pub fn plan(
     };
     let resume = manifest.write_or_resume(out_dir)?;
     Ok((manifest, resume))
+}
+
+/// A frame's file and, in a 4-D file, its time step.
+type Source = (PathBuf, Option<usize>);
+
+/// Every frame of `files` (absolute): a 3-D file is one, a 4-D NRRD or NIfTI file one per time
+/// step, in order.
+fn time_steps(files: &[PathBuf], scene: &Scene) -> Result<Vec<Source>> {
+    let mut sources = Vec::with_capacity(files.len());
+    for file in files {
+        let path = std::path::absolute(file).map_err(|e| Error::io(file, e))?;
+        let options = LoadOptions {
+            frame: None,
+            ..scene.volume.options.clone()
+        };
+        match volume::frame_count(&path, &options)? {
+            1 => sources.push((path, None)),
+            steps => sources.extend((0..steps).map(|t| (path.clone(), Some(t)))),
+        }
+    }
+    Ok(sources)
 }
 
 /// The scene tree with a volume path, so that a scene whose only source is `--frames` parses:
@@ -255,7 +278,7 @@ fn fix_across(
     tree: &Value,
     base: &Path,
     scene: &Scene,
-    sources: &[PathBuf],
+    sources: &[Source],
     quiet: bool,
 ) -> Result<Fixed> {
     let needs_window = scene.classification.units == ValueUnits::Normalized
@@ -265,8 +288,8 @@ fn fix_across(
     let mut grid: Option<(PathBuf, Volume)> = None;
     let mut window: Option<Window> = None;
     let mut template: Option<Scene> = None;
-    for (n, source) in sources.iter().enumerate() {
-        let frame = frame_scene_from(tree, base, source)?;
+    for (n, (source, time)) in sources.iter().enumerate() {
+        let frame = frame_scene_from(tree, base, source, *time)?;
         let loaded = without_data_choices(&frame).load()?;
         check_same_grid(&grid, source, &loaded.volume)?;
         if let ValueRange::Window(w) = loaded.scene.classification.range {
@@ -351,13 +374,13 @@ fn content_across(
     tree: &Value,
     base: &Path,
     fixed: &Scene,
-    sources: &[PathBuf],
+    sources: &[Source],
     quiet: bool,
 ) -> Result<Option<Content>> {
     let bar = Bar::new(quiet, sources.len() as u64, "framing frames");
     let mut union: Option<Content> = None;
-    for (n, source) in sources.iter().enumerate() {
-        let mut frame = without_data_choices(&frame_scene_from(tree, base, source)?);
+    for (n, (source, time)) in sources.iter().enumerate() {
+        let mut frame = without_data_choices(&frame_scene_from(tree, base, source, *time)?);
         frame.classification = fixed.classification.clone();
         let volume = frame.load()?.volume;
         if let Some(c) = framing::content(&volume, &frame.classification) {
@@ -452,8 +475,14 @@ fn grid_names(scene: &Scene, options: &SeriesOptions) -> Result<Vec<String>> {
     Ok(names)
 }
 
-/// The scene of one frame: the tree with `volume.path` set to the frame's file.
-fn frame_scene_from(tree: &Value, base: &Path, source: &Path) -> Result<Scene> {
+/// The scene of one frame: the tree with `volume.path` set to the frame's file (and
+/// `volume.time` to its time step in a 4-D file).
+fn frame_scene_from(
+    tree: &Value,
+    base: &Path,
+    source: &Path,
+    time: Option<usize>,
+) -> Result<Scene> {
     let mut tree = tree.clone();
     let volume = tree
         .get_mut("volume")
@@ -464,6 +493,10 @@ fn frame_scene_from(tree: &Value, base: &Path, source: &Path) -> Result<Scene> {
         "path".into(),
         Value::from(source.to_string_lossy().as_ref()),
     );
+    match time {
+        Some(t) => volume.insert("time".into(), Value::from(t)),
+        None => volume.remove("time"),
+    };
     Scene::from_value(tree, base)
 }
 
@@ -471,7 +504,7 @@ impl Manifest {
     /// Frame `number`'s scene with everything fixed across the series applied.
     pub fn frame_scene(&self, entry: &FrameEntry) -> Result<Scene> {
         let s = &self.settings;
-        let mut scene = frame_scene_from(&s.scene, &s.base, &entry.source)?;
+        let mut scene = frame_scene_from(&s.scene, &s.base, &entry.source, entry.time)?;
         if let Some(w) = s.window {
             scene.classification.range = ValueRange::Window(w);
         }
@@ -537,8 +570,13 @@ pub fn run_frame(
     }
     let options = &s.options;
     let mut set = OutputSet::new(out_dir)?;
-    let rendered = pipeline::render(scene, volume, compute, progress)?;
-    if let Some(exr) = &entry.exr {
+    // The render is needed for the images, or for the grids the method computes on the way.
+    let rendered = if entry.exr.is_some() || !scene.method.grids().is_empty() {
+        Some(pipeline::render(scene, volume, compute, progress)?)
+    } else {
+        None
+    };
+    if let (Some(exr), Some(rendered)) = (&entry.exr, &rendered) {
         let stem = exr.trim_end_matches(".exr");
         let image = &rendered.image;
         pipeline::write_image_files(
@@ -562,7 +600,8 @@ pub fn run_frame(
             None => None,
         };
         let extinction = scene.classification.extinction(volume)?;
-        let mut grids = pipeline::export_grids(&rendered, &extinction, volume);
+        let method_grids = rendered.as_ref().map_or(&[][..], |r| &r.grids[..]);
+        let mut grids = pipeline::export_grids(method_grids, &extinction, volume);
         if let Some(ao) = &ao {
             grids.push(crate::export::vdb::VdbGrid::from_volume(
                 AO_GRID,

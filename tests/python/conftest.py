@@ -10,10 +10,12 @@ of skipping them.
 from __future__ import annotations
 
 import os
+import subprocess
 import sys
 from pathlib import Path
 
 import pytest
+from occlux_testing import REPO
 from occlux_testing import bpy_site_packages as find_bpy_site_packages
 
 
@@ -65,3 +67,16 @@ def gpu_device() -> str:
             pytest.fail(f"{message} (OCCLUX_REQUIRE_GPU is set)")
         pytest.skip(message)
     return "gpu"
+
+
+@pytest.fixture(scope="session")
+def extension(tmp_path_factory) -> Path:
+    """The extension zip, built once per run with the add-on's build script (maturin wheel
+    inside), for every test that installs it in Blender."""
+    out = tmp_path_factory.mktemp("dist")
+    subprocess.run(
+        [sys.executable, str(REPO / "blender_addon" / "build.py"), "--out", str(out)],
+        check=True,
+        capture_output=True,
+    )
+    return out / "occlux-0.1.0.zip"

@@ -48,18 +48,6 @@ def attempt(op, **kwargs):
 """
 
 
-@pytest.fixture(scope="session")
-def extension(tmp_path_factory) -> Path:
-    """The extension zip, built once with the add-on's build script (maturin wheel inside)."""
-    out = tmp_path_factory.mktemp("dist")
-    subprocess.run(
-        [sys.executable, str(REPO / "blender_addon" / "build.py"), "--out", str(out)],
-        check=True,
-        capture_output=True,
-    )
-    return out / "occlux-0.1.0.zip"
-
-
 def blender(extension: Path, user: Path, script: str) -> tuple[dict, str]:
     """Runs `script` after the prelude in a fresh bpy process; returns its `result` and output."""
     env = {**os.environ, "BLENDER_USER_RESOURCES": str(user)}

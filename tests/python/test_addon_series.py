@@ -12,11 +12,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-import test_addon
 from occlux_testing import run_occlux
 from test_addon import CAMERA_AND_WORLD, blender
-
-extension = test_addon.extension  # the same fixture: the extension zip, built once
 
 PRESET = "ct-soft-tissue"
 SIZE = 64  # voxels along each side: a sphere's bounds in 8-voxel leaves grow with its radius

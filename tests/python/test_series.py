@@ -13,6 +13,7 @@ import cloudpickle
 import distributed
 import numpy as np
 import occlux
+import occlux.usd
 import pytest
 from occlux.cycles import bundled_module
 from occlux_testing import run_occlux
@@ -181,6 +182,27 @@ def test_the_stage_plays_the_frames_in_usd_core(serial) -> None:
             asset = path.Get(Usd.TimeCode(frame))
             assert asset.path == f"./ball_{frame:04}.vdb"
             assert Path(asset.resolvedPath) == out / f"ball_{frame:04}.vdb"
+
+
+def test_pxr_authors_the_series_time_samples_as_the_core_writes_them(serial, tmp_path) -> None:
+    from pxr import Usd
+
+    scene_path, out = serial
+    scene = occlux.Scene.load(scene_path)
+    files = [f"ball_{f:04}.vdb" for f in range(1, FRAMES + 1)]
+    grids = ["density", "value", "ao"]
+    description = occlux.stage_description(scene, scene.load_volume(), files[0], grids, files)
+    occlux.usd.write_stage(tmp_path / "pxr.usda", description)
+    core = Usd.Stage.Open(str(out / "ball.usda"))
+    ours = Usd.Stage.Open(str(tmp_path / "pxr.usda"))
+    for stage in (core, ours):
+        assert (stage.GetStartTimeCode(), stage.GetEndTimeCode()) == (1, FRAMES)
+        assert stage.GetTimeCodesPerSecond() == 24
+    for grid in grids:
+        a, b = (s.GetAttributeAtPath(f"/World/Volume/{grid}.filePath") for s in (core, ours))
+        assert a.GetTimeSamples() == b.GetTimeSamples() == list(range(1, FRAMES + 1))
+        for frame in a.GetTimeSamples():
+            assert a.Get(frame).path == b.Get(frame).path == f"./{files[int(frame) - 1]}"
 
 
 def test_export_alone_writes_no_renders(serial, tmp_path: Path) -> None:

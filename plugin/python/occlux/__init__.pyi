@@ -320,9 +320,16 @@ def reference(
     """A Monte Carlo reference of ``scene`` on the CPU (see ``occlux reference``): unbiased,
     seeded and deterministic, with per-pixel standard errors. The GIL is released."""
 
-def stage_description(scene: Scene, volume: Volume, vdb_file: str, grids: Sequence[str]) -> str:
+def stage_description(
+    scene: Scene,
+    volume: Volume,
+    vdb_file: str,
+    grids: Sequence[str],
+    frames: Sequence[str] | None = None,
+) -> str:
     """The USD stage for ``volume``'s grids ``grids`` in ``vdb_file`` (relative to the stage)
-    with ``scene``'s camera and lights, as JSON for :mod:`occlux.usd`."""
+    with ``scene``'s camera and lights, as JSON for :mod:`occlux.usd`; with ``frames`` (VDB
+    files), a series' stage whose fields read ``frames[i]`` at time code ``i + 1``."""
 
 def export(
     scene: Scene,

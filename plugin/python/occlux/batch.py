@@ -38,6 +38,9 @@ __all__ = ["SeriesError", "SeriesResult", "series"]
 
 #: How long to wait for a scheduler given by address before saying it cannot be reached.
 CONNECT_TIMEOUT_S = 10
+#: The environment of the LocalCluster's workers: one worker per core, each frame's work on one
+#: thread (the core's rayon pool would otherwise start a thread per core in every worker).
+WORKER_ENV = {"RAYON_NUM_THREADS": "1"}
 
 
 class SeriesError(RuntimeError):
@@ -105,6 +108,7 @@ def series(
             threads_per_worker=1,
             processes=True,
             dashboard_address=":0",
+            env=dict(WORKER_ENV),
         )
         client = distributed.Client(own_cluster)
     elif isinstance(client, str):

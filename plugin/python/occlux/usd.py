@@ -59,6 +59,12 @@ def add_to_stage(stage, description: Description | str) -> None:
     d = _load(description)
     usd_geom.SetStageUpAxis(stage, getattr(usd_geom.Tokens, d["up_axis"].lower()))
     usd_geom.SetStageMetersPerUnit(stage, d["meters_per_unit"])
+    if d.get("time_codes"):
+        start, end = d["time_codes"]
+        stage.SetStartTimeCode(start)
+        stage.SetEndTimeCode(end)
+        stage.SetTimeCodesPerSecond(24)
+        stage.SetFramesPerSecond(24)
     root = usd_geom.Xform.Define(stage, f"/{d['root']}")
     if not stage.HasDefaultPrim():
         stage.SetDefaultPrim(root.GetPrim())
@@ -69,7 +75,10 @@ def add_to_stage(stage, description: Description | str) -> None:
     for f in v["fields"]:
         path = volume.GetPath().AppendChild(f["name"])
         asset = usd_vol.OpenVDBAsset.Define(stage, path)
-        asset.CreateFilePathAttr(px.Sdf.AssetPath(f["file_path"]))
+        file_path = asset.CreateFilePathAttr(px.Sdf.AssetPath(f["file_path"]))
+        # A series' stage: the file at each time code (the default above for readers of one).
+        for code, file in f.get("time_samples", []):
+            file_path.Set(px.Sdf.AssetPath(file), code)
         asset.CreateFieldNameAttr(f["field_name"])
         asset.CreateFieldClassAttr("fogVolume")
         asset.CreateFieldDataTypeAttr("float")
