@@ -20,7 +20,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 
 import bpy
-from occlux.cycles.material import color_ramp
+from occlux.cycles.material import box_mask, color_ramp
 
 AO_SHADINGS = ("AMBIENT", "ALBEDO")
 AO_FACTOR = "Occlux AO factor"
@@ -87,11 +87,19 @@ def _classified(tree: bpy.types.NodeTree, points: Sequence[Point]):
 
 
 def volume_material(
-    name: str, points: Sequence[Point] | None, ao: str | None, ao_factor: float, ambient: Rgb
+    name: str,
+    points: Sequence[Point] | None,
+    ao: str | None,
+    ao_factor: float,
+    ambient: Rgb,
+    box: tuple[Rgb, Rgb],
 ) -> bpy.types.Material:
     """A Principled Volume with Occlux's classification of the `value` grid: Density = sigma_t,
     Color = albedo, the transfer function's emission, Absorption Color black (for a 2D transfer
-    function, `points` None: the classified `density` grid and a grey albedo); with an `ao`
+    function, `points` None: the classified `density` grid and a grey albedo), all within the
+    volume's `box` (its cells' bounds in the object's space: Occlux's VDBs are padded by one
+    voxel repeating the border, so Cycles' samples inside the box are Occlux's, and the medium
+    ends at the box's faces as in Occlux); with an `ao`
     grid, shaded by `ao` (`AO_SHADINGS`, see the module) with the strength in the value node
     AO_FACTOR (the panel's AO strength) and the world's radiance `ambient` in the colour node
     AMBIENT (for AMBIENT shading)."""
@@ -121,6 +129,10 @@ def volume_material(
         albedo = _grey(tree, 0.8)
     else:
         sigma_t, albedo, emitted = _classified(tree, points)
+    inside = box_mask(tree, box)
+    sigma_t = _math(tree, "MULTIPLY", sigma_t, inside)
+    if emitted is not None:
+        emitted = _colour(tree, "MULTIPLY", emitted, _as_colour(tree, inside))
     tree.links.new(sigma_t, shader.inputs["Density"])
 
     if ao is not None:

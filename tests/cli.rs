@@ -8,6 +8,8 @@ use occlux::scene::Scene;
 use std::path::Path;
 use std::process::{Command, Output};
 
+mod common;
+
 fn occlux(args: &[&str]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_occlux"))
         .args(args)
@@ -506,11 +508,11 @@ fn ao_writes_the_grids_slice_and_timing_the_library_computes() {
         let grid = reader.read_grid::<f32>(name).unwrap();
         let mut active = 0;
         for (p, v, _) in grid.iter() {
-            let expected = want.at(p.x as usize, p.y as usize, p.z as usize);
+            let expected = common::padded_at(want, [p.x as i32, p.y as i32, p.z as i32]);
             assert_eq!(v, expected, "{name} at {p:?}");
             active += 1;
         }
-        let nonzero = want.values().iter().filter(|&&v| v != 0.0).count();
+        let nonzero = common::padded_nonzero(want);
         assert_eq!(active, nonzero, "{name}: every non-zero voxel is active");
     }
     let record: serde_json::Value =
@@ -628,7 +630,7 @@ fn ao_by_occlusion_sweeping_writes_the_level_set_and_octants_the_library_compute
         for (p, v, _) in grid.iter() {
             assert_eq!(
                 v,
-                want.at(p.x as usize, p.y as usize, p.z as usize),
+                common::padded_at(want, [p.x as i32, p.y as i32, p.z as i32]),
                 "{name} at {p:?}"
             );
             active += 1;
@@ -690,7 +692,10 @@ fn ao_shaded_scenes_render_and_export_the_ao_grid() {
     let mut reader = vdb_rs::VdbReader::new(file).unwrap();
     let grid = reader.read_grid::<f32>("ao").unwrap();
     for (p, v, _) in grid.iter() {
-        assert_eq!(v, ao.at(p.x as usize, p.y as usize, p.z as usize));
+        assert_eq!(
+            v,
+            common::padded_at(ao, [p.x as i32, p.y as i32, p.z as i32])
+        );
     }
     assert!(reader.read_grid::<f32>("ao_variance").is_ok());
     let usda = std::fs::read_to_string(dir.join("ball-ao.usda")).unwrap();

@@ -7,6 +7,8 @@ use occlux::volume::{load, LoadOptions, Volume};
 use std::collections::HashMap;
 use std::path::Path;
 
+mod common;
+
 /// A sparse field: a ball of varying density in a larger empty box, spanning several leaves
 /// and (at 150 voxels) more than one 128^3 internal node along x.
 fn ball(dims: [usize; 3], spacing: Vec3, origin: Vec3) -> Volume {
@@ -202,6 +204,7 @@ fn the_writer_refuses_bad_grids_and_leaves_nothing() {
         values,
         background: 0.0,
         class: Default::default(),
+        padded: true,
     };
     let ok: &'static [f32] = &[1.0; 8];
     for (grids, what) in [
@@ -301,13 +304,58 @@ fn grids_of_more_leaves_than_a_batch_read_back_exactly() {
     };
     write_vdb(&path, &[VdbGrid::from_volume("density", &volume)], &options).unwrap();
     let (voxels, _, _) = read_with_vdb_rs(&path, "density");
-    let nonzero = volume.values().iter().filter(|v| **v != 0.0).count();
+    // The grid and its padding (one voxel on every side repeating the border).
+    let nonzero = common::padded_nonzero(&volume);
     assert_eq!(voxels.len(), nonzero);
-    for (&[i, j, k], &v) in &voxels {
-        assert_eq!(
-            v,
-            volume.at(i as usize, j as usize, k as usize),
-            "at {i} {j} {k}"
-        );
+    for (&c, &v) in &voxels {
+        assert_eq!(v, common::padded_at(&volume, c), "at {c:?}");
     }
+}
+
+#[test]
+fn fog_volumes_are_padded_by_their_border_and_read_back_unpadded() {
+    // Matter up to every face (values differ per voxel), over more than one leaf per axis.
+    let dims = [19, 9, 12];
+    let (spacing, origin) = (Vec3::new(0.5, 0.25, 2.0), Vec3::new(-3.0, 1.5, 10.0));
+    let volume = Volume::from_fn(dims, spacing, origin, |p| {
+        let q = (p - origin) / spacing;
+        1.0 + q.x + 10.0 * q.y + 100.0 * q.z
+    })
+    .unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("padded.vdb");
+    let sdf = VdbGrid::level_set("sdf", &volume);
+    write_vdb(
+        &path,
+        &[VdbGrid::from_volume("density", &volume), sdf],
+        &VdbOptions::default(),
+    )
+    .unwrap();
+    // What a renderer reads: one more voxel on every side, each its neighbour on the border.
+    let (voxels, _, translation) = read_with_vdb_rs(&path, "density");
+    assert_eq!(
+        translation,
+        origin.as_dvec3().to_array(),
+        "voxels keep their places"
+    );
+    let padded: usize = dims.iter().map(|d| d + 2).product();
+    assert_eq!(voxels.len(), padded);
+    for (&c, &v) in &voxels {
+        assert_eq!(v, common::padded_at(&volume, c));
+    }
+    // A distance is not padded: beyond the grid the narrow band ends.
+    let (sdf_voxels, _, _) = read_with_vdb_rs(&path, "sdf");
+    assert!(sdf_voxels.keys().all(|c| c.iter().all(|&x| x >= 0)));
+    // Occlux reads the grid itself back, at the same world positions.
+    let back = load(
+        &path,
+        &LoadOptions {
+            grid: Some("density".into()),
+            ..LoadOptions::default()
+        },
+    )
+    .unwrap();
+    assert_eq!(back.dims(), dims);
+    assert_eq!(back.origin(), origin);
+    assert_eq!(back.values(), volume.values());
 }

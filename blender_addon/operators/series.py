@@ -38,6 +38,7 @@ class Series:
     first: int  # the number in the first VDB's name
     grids: tuple[str, ...]
     points: list[material.Point] | None
+    box: tuple[material.Rgb, material.Rgb]  # the frames' cells' bounds, the same for all
 
     @property
     def sequence(self) -> FrameSequence:
@@ -70,6 +71,20 @@ def _field(tree: dict[str, Any], key: str, kind: type | tuple[type, ...], where:
     if not isinstance(value, kind) or isinstance(value, bool):
         raise ValueError(f"{where}: '{key}' is {json.dumps(value)}")
     return value
+
+
+def _box(tree: dict[str, Any], where: str) -> tuple[material.Rgb, material.Rgb]:
+    """The manifest's `settings.bounds`: [[x, y, z], [x, y, z]], the cells' bounds."""
+    bounds = (
+        tree.get("settings", {}).get("bounds") if isinstance(tree.get("settings"), dict) else None
+    )
+    try:
+        lo, hi = (tuple(float(c) for c in corner) for corner in bounds)
+        if len(lo) != 3 or len(hi) != 3:
+            raise ValueError
+    except (TypeError, ValueError) as e:
+        raise ValueError(f"{where}: 'settings.bounds' is {json.dumps(bounds)}") from e
+    return lo, hi
 
 
 def _points(raw: Any, where: str) -> list[material.Point] | None:
@@ -152,7 +167,7 @@ def read_series(manifest: Path) -> Series:
                 f"{expected.name} there (a sequence's files are numbered one after another in "
                 "one folder)"
             )
-    return Series(manifest.resolve(), name, vdbs, start, grids, points)
+    return Series(manifest.resolve(), name, vdbs, start, grids, points, _box(tree, where))
 
 
 class OCCLUX_OT_import_series(bpy.types.Operator):
@@ -189,6 +204,7 @@ class OCCLUX_OT_import_series(bpy.types.Operator):
                 vdb=series.vdbs[0],
                 grids=series.grids,
                 points=series.points,
+                box=series.box,
                 mark=SERIES,
                 setting=str(series.manifest),
                 owned=False,

@@ -17,6 +17,9 @@ from pathlib import Path
 import bpy
 from bpy.props import StringProperty
 from bpy_extras.io_utils import ImportHelper
+from occlux.cycles.material import box_mask
+
+from ..material import Rgb
 
 # Blender's suffix for a name already taken ("Camera.001").
 _SUFFIX = re.compile(r"\.\d{3,}$")
@@ -57,6 +60,8 @@ class StageSettings:
     resolution: tuple[int, int]
     camera: StageCamera
     helper_names: frozenset[str]
+    # The volume's extent (its cells' bounds), where its medium ends; None if it has none.
+    volume_box: tuple[Rgb, Rgb] | None
 
 
 def read_stage(path: Path) -> StageSettings:
@@ -86,6 +91,9 @@ def read_stage(path: Path) -> StageSettings:
     near, far = camera.GetClippingRangeAttr().Get()
     helpers = {p.GetName() for p in stage.Traverse() if p.IsA(usd_vol.FieldBase)}
     helpers.add(prim.GetParent().GetName())
+    volume = next((p for p in stage.Traverse() if p.IsA(usd_vol.Volume)), None)
+    extent = usd_vol.Volume(volume).GetExtentAttr().Get() if volume is not None else None
+    box = None if extent is None else tuple(tuple(float(c) for c in corner) for corner in extent)
     return StageSettings(
         resolution=(int(resolution[0]), int(resolution[1])),
         camera=StageCamera(
@@ -97,6 +105,7 @@ def read_stage(path: Path) -> StageSettings:
             clipping_range=(float(near), float(far)),
         ),
         helper_names=frozenset(helpers),
+        volume_box=box,
     )
 
 
@@ -123,9 +132,11 @@ def apply_camera(data: bpy.types.Camera, camera: StageCamera) -> None:
     data.clip_start, data.clip_end = camera.clipping_range
 
 
-def default_volume_material(name: str) -> bpy.types.Material:
+def default_volume_material(name: str, box: tuple[Rgb, Rgb] | None) -> bpy.types.Material:
     """A Principled Volume whose density is the `density` grid as it is, Occlux's extinction
-    sigma_t per scene unit (the albedo is not in the stage: a neutral grey)."""
+    sigma_t per scene unit (the albedo is not in the stage: a neutral grey), within the
+    volume's `box` (the stage's extent: Occlux's grids are padded by one voxel repeating the
+    border, and its medium ends at the box's faces)."""
     material = bpy.data.materials.new(name)
     tree = material.node_tree
     if tree is None:  # Blender < 5 needs use_nodes
@@ -136,6 +147,8 @@ def default_volume_material(name: str) -> bpy.types.Material:
     principled = tree.nodes.new("ShaderNodeVolumePrincipled")
     principled.inputs["Density"].default_value = 1.0
     principled.inputs["Density Attribute"].default_value = "density"
+    if box is not None:
+        tree.links.new(box_mask(tree, box), principled.inputs["Density"])
     tree.links.new(principled.outputs["Volume"], output.inputs["Volume"])
     return material
 
@@ -186,7 +199,9 @@ class OCCLUX_OT_import_stage(bpy.types.Operator, ImportHelper):
         volumes = [o for o in new if o.type == "VOLUME"]
         for obj in volumes:
             if not obj.data.materials:
-                obj.data.materials.append(default_volume_material(f"Occlux {obj.name}"))
+                obj.data.materials.append(
+                    default_volume_material(f"Occlux {obj.name}", settings.volume_box)
+                )
         w, h = settings.resolution
         names = ", ".join(o.name for o in volumes) or "no volume"
         self.report({"INFO"}, f"imported {path.name}: {w} x {h}, camera '{camera.name}', {names}")

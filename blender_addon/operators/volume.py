@@ -159,7 +159,8 @@ class Shown:
     """What a Volume object shows: the VDB (the first frame's, for a `sequence`) with the
     `grids` it must hold, the material's control points (None: a 2D transfer function), and
     the custom property `mark` that marks the object, holding `setting`. `owned`: the add-on
-    wrote the VDB, so a file Blender cannot read is removed (a series' files are the user's)."""
+    wrote the VDB, so a file Blender cannot read is removed (a series' files are the user's).
+    `box`: the volume's cells' bounds, where its medium ends (the material's box mask)."""
 
     name: str
     vdb: Path
@@ -168,6 +169,7 @@ class Shown:
     mark: str
     setting: str
     owned: bool
+    box: tuple[material.Rgb, material.Rgb]
     sequence: FrameSequence | None = None
 
 
@@ -181,6 +183,7 @@ def show_volume(
         vdb=loaded.vdb,
         grids=grids,
         points=loaded.classification.raw_points(loaded.volume),
+        box=loaded.volume.bounds,
         mark=SOURCE,
         setting=loaded.source.setting,
         owned=True,
@@ -217,7 +220,7 @@ def show(
     if shown.sequence is not None:
         show_sequence(context.scene, data, shown.sequence)
     shading = material.volume_material(
-        f"Occlux {name}", shown.points, ao, context.scene.occlux.ao_factor, ambient
+        f"Occlux {name}", shown.points, ao, context.scene.occlux.ao_factor, ambient, shown.box
     )
     data.materials.append(shading)
     obj = target

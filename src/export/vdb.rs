@@ -8,6 +8,15 @@
 //! Voxel (i, j, k) of a grid is stored at index coordinate (i, j, k), and the transform maps it
 //! to `origin + (i, j, k) * spacing`, so voxel centres keep their world positions.
 //!
+//! Fog volumes are padded: one more voxel on every side (index -1 and n) repeats its neighbour
+//! on the border, and the metadata `occlux_box_min` / `occlux_box_max` give the grid's own
+//! index box. Occlux samples a volume up to its box's faces (half a voxel beyond the outer
+//! voxel centres) with the border value held there; a VDB renderer (Cycles, OpenVDB's
+//! samplers) fades to the background over the voxel beyond the last stored one, which without
+//! the padding thins every face by half a voxel. With it, a material that masks its density to
+//! the box (the add-on's does, as the Cycles harness's) renders the volume exactly as Occlux
+//! does; one that does not shows it up to one voxel wider. Occlux's reader clips to the box.
+//!
 //! Value blocks always use OpenVDB's active-mask compression (flag 2): inactive values equal the
 //! background, so a block stores its metadata byte 0 and then only its active values. On top of
 //! that, zlib (flag 1) is optional, and so is half-float storage (`Tree_float_5_4_3_HalfFloat`:
@@ -29,6 +38,9 @@ use std::io::{Seek, SeekFrom, Write};
 use std::path::Path;
 
 const FILE_VERSION: u32 = 224;
+/// Grid metadata of a padded grid: its own index box, inclusive (see the module).
+pub const BOX_MIN: &str = "occlux_box_min";
+pub const BOX_MAX: &str = "occlux_box_max";
 const LIBRARY_VERSION: (u32, u32) = (12, 0);
 const COMPRESS_ZIP: u32 = 1;
 const COMPRESS_ACTIVE_MASK: u32 = 2;
@@ -72,6 +84,8 @@ pub struct VdbGrid<'a> {
     pub values: &'a [f32],
     pub background: f32,
     pub class: GridClass,
+    /// Write one more voxel on every side repeating the border (fog volumes; see the module).
+    pub padded: bool,
 }
 
 /// OpenVDB's grid class: how readers (Blender among them) interpret the values.
@@ -107,6 +121,7 @@ impl<'a> VdbGrid<'a> {
             values: volume.values(),
             background: 0.0,
             class: GridClass::FogVolume,
+            padded: true,
         }
     }
 
@@ -116,6 +131,8 @@ impl<'a> VdbGrid<'a> {
         Self {
             background: LEVEL_SET_HALF_WIDTH * sdf.spacing().max_element(),
             class: GridClass::LevelSet,
+            // A distance beyond the grid is not the border's: the narrow band ends there.
+            padded: false,
             ..Self::from_volume(name, sdf)
         }
     }
@@ -178,6 +195,19 @@ impl<'a> VdbGrid<'a> {
     fn voxel_of(&self, index: usize) -> [usize; 3] {
         let [nx, ny, _] = self.dims;
         [index % nx, (index / nx) % ny, index / (nx * ny)]
+    }
+
+    /// The index range written along `axis`: the grid's, and the padding around it.
+    fn written(&self, axis: usize) -> std::ops::Range<i32> {
+        let pad = self.padded as i32;
+        -pad..self.dims[axis] as i32 + pad
+    }
+
+    /// The stored voxel written at index `i` along `axis`, None beyond what is written.
+    fn source(&self, axis: usize, i: i32) -> Option<usize> {
+        self.written(axis)
+            .contains(&i)
+            .then(|| i.clamp(0, self.dims[axis] as i32 - 1) as usize)
     }
 }
 
@@ -291,31 +321,44 @@ struct Tree {
     active_box: [[i32; 3]; 2],
 }
 
-/// The values of the leaf at `origin` (x slowest), the background beyond the grid.
+/// The values of the leaf at `origin` (x slowest): the grid's, its padding's, and the
+/// background beyond.
 fn gather(grid: &VdbGrid, origin: Origin) -> Leaf {
-    let [nx, ny, nz] = grid.dims;
-    let [li, lj, lk] = origin.map(|c| c as usize);
+    let [nx, ny, _] = grid.dims;
     let mut leaf = [grid.background; 512];
-    for k in lk..(lk + 8).min(nz) {
-        for j in lj..(lj + 8).min(ny) {
+    for dk in 0..8 {
+        let Some(k) = grid.source(2, origin[2] + dk) else {
+            continue;
+        };
+        for dj in 0..8 {
+            let Some(j) = grid.source(1, origin[1] + dj) else {
+                continue;
+            };
             let row = &grid.values[nx * (j + ny * k)..][..nx];
-            for i in li..(li + 8).min(nx) {
-                leaf[((i - li) << 6) | ((j - lj) << 3) | (k - lk)] = row[i];
+            for di in 0..8 {
+                if let Some(i) = grid.source(0, origin[0] + di) {
+                    leaf[((di as usize) << 6) | ((dj as usize) << 3) | dk as usize] = row[i];
+                }
             }
         }
     }
     leaf
 }
 
+/// The origins of the leaves that cover what is written along `axis` (multiples of 8).
+fn leaf_origins(grid: &VdbGrid, axis: usize) -> impl Iterator<Item = i32> {
+    let range = grid.written(axis);
+    (range.start.div_euclid(8)..=(range.end - 1).div_euclid(8)).map(|n| 8 * n)
+}
+
 fn build_tree(grid: &VdbGrid) -> Tree {
-    let [nx, ny, nz] = grid.dims;
     let mut nodes: BTreeMap<Origin, BTreeMap<Origin, Node4>> = BTreeMap::new();
     let mut active_voxels = 0;
     let mut active_box = [[i32::MAX; 3], [i32::MIN; 3]];
-    for lk in (0..nz).step_by(8) {
-        for lj in (0..ny).step_by(8) {
-            for li in (0..nx).step_by(8) {
-                let o = [li as i32, lj as i32, lk as i32];
+    for lk in leaf_origins(grid, 2) {
+        for lj in leaf_origins(grid, 1) {
+            for li in leaf_origins(grid, 0) {
+                let o = [li, lj, lk];
                 // Beyond the grid a leaf holds the background, so only voxels count.
                 let leaf = gather(grid, o);
                 let mut any = false;
@@ -450,7 +493,7 @@ fn write_grid<W: Write + Seek>(
     let vec3i = |v: [i32; 3]| -> Vec<u8> { v.iter().flat_map(|c| c.to_le_bytes()).collect() };
     // OpenVDB marks half-float grids twice: the type name's suffix and this metadata (which is
     // what vdb-rs reads).
-    w.write_all(&(5 + options.half as u32).to_le_bytes())?;
+    w.write_all(&(5 + options.half as u32 + 2 * grid.padded as u32).to_le_bytes())?;
     metadata(w, "class", "string", grid.class.name())?;
     if options.half {
         metadata(w, "is_saved_as_half_float", "bool", &[1])?;
@@ -464,6 +507,11 @@ fn write_grid<W: Write + Seek>(
         &(tree.active_voxels as i64).to_le_bytes(),
     )?;
     metadata(w, "name", "string", grid.name.as_bytes())?;
+    if grid.padded {
+        let last = grid.dims.map(|d| d as i32 - 1);
+        metadata(w, BOX_MIN, "vec3i", &vec3i([0; 3]))?;
+        metadata(w, BOX_MAX, "vec3i", &vec3i(last))?;
+    }
 
     let (s, t) = (grid.spacing.as_dvec3(), grid.origin.as_dvec3());
     let uniform = s.x == s.y && s.y == s.z;

@@ -134,10 +134,18 @@ def test_openvdb_reads_values_and_transform(blob, tmp_path, flags, openvdb):
         if half and name == "density":
             tol = 1e-2
         np.testing.assert_allclose(got, want, rtol=tol, atol=tol * 30.0)
-        assert grid.activeVoxelCount() == np.count_nonzero(want)
-        nz = np.argwhere(want)  # (z, y, x)
+        # Padded by one voxel repeating the border (what Cycles' fade needs), the grid's own
+        # index box in the metadata.
+        padded = np.pad(want, 1, mode="edge")
+        assert grid.activeVoxelCount() == np.count_nonzero(padded)
+        nz = np.argwhere(padded) - 1  # (z, y, x)
         lo, hi = grid.evalActiveVoxelBoundingBox()
         assert tuple(lo) == tuple(nz.min(0)[::-1]) and tuple(hi) == tuple(nz.max(0)[::-1])
+        assert tuple(grid.metadata["occlux_box_min"]) == (0, 0, 0)
+        assert tuple(grid.metadata["occlux_box_max"]) == tuple(d - 1 for d in DIMS)
+        ring = np.zeros([d + 2 for d in DIMS], dtype=np.float32)
+        grid.copyToArray(ring, ijk=(-1, -1, -1))
+        np.testing.assert_array_equal(ring, np.pad(dense, 1, mode="edge"))
 
 
 def test_storage_options_trade_size(blob, tmp_path):
@@ -170,8 +178,9 @@ def test_blender_loads_the_grids(blob, tmp_path):
     bpy.context.view_layer.update()
     corners = np.array([list(c) for c in obj.bound_box])
     # Blender bounds a grid by its leaf nodes (8^3 voxels) holding active voxels, each voxel
-    # extending half a voxel past its centre.
-    active = np.argwhere(values)[:, ::-1]  # x, y, z
+    # extending half a voxel past its centre; the grids are padded by one voxel repeating the
+    # border (index -1 and n).
+    active = np.argwhere(np.pad(values, 1, mode="edge"))[:, ::-1] - 1  # x, y, z
     lo = origin + voxel * (active.min(0) // 8 * 8 - 0.5)
     hi = origin + voxel * (active.max(0) // 8 * 8 + 7.5)
     np.testing.assert_allclose(corners.min(0), lo, atol=1e-5)
@@ -285,7 +294,9 @@ def test_export_of_a_real_ct(tmp_path, openvdb):
     files = export(engine, tmp_path, "--half")
     grids, _ = openvdb.readAll(str(files[".vdb"]))
     value = next(g for g in grids if g.name == "value")
-    assert tuple(value.evalActiveVoxelBoundingBox()[1]) == (255, 255, 127)
+    # 256 x 256 x 128 voxels with matter on every face, and the padding around them.
+    assert tuple(value.evalActiveVoxelBoundingBox()[0]) == (-1, -1, -1)
+    assert tuple(value.evalActiveVoxelBoundingBox()[1]) == (256, 256, 128)
     assert usd_validation_errors(Usd.Stage.Open(str(files[".usda"]))) == []
 
 
@@ -319,7 +330,7 @@ def test_an_all_transparent_classification_exports_an_empty_density_grid(blob, t
     np.testing.assert_allclose(
         by_name["density"].transform.voxelSize(), expected_placement()[0], rtol=1e-6
     )
-    assert by_name["value"].activeVoxelCount() == np.count_nonzero(values)
+    assert by_name["value"].activeVoxelCount() == np.count_nonzero(np.pad(values, 1, mode="edge"))
 
 
 @pytest.mark.parametrize("half", [False, True])

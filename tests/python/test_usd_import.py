@@ -11,12 +11,8 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
-import test_addon
 from occlux_testing import oiio_read, run_occlux
 from test_addon import blender
-
-# The extension zip, built as test_addon.py builds it (its session fixture).
-extension = test_addon.extension
 
 WIDTH, HEIGHT = 128, 80
 # A sphere off the camera's axis (centred away from the target) in a wide image: a wrong image

@@ -21,12 +21,13 @@ use super::{
     check_spacing, finish, vdb_sizes, Frame, LoadOptions, NonFiniteVoxels, Placement, SourceInfo,
 };
 use crate::error::{Error, Result};
+use crate::export::vdb::{BOX_MAX, BOX_MIN};
 use crate::volume::{check_budget, Volume};
 use glam::{DVec3, IVec3, Vec3};
 use std::fs::File;
 use std::io::{BufReader, Read};
 use std::path::Path;
-use vdb_rs::{Grid, Map, VdbLevel, VdbReader};
+use vdb_rs::{Grid, Map, MetadataValue, VdbLevel, VdbReader};
 
 const MAGIC: [u8; 8] = [0x20, 0x42, 0x44, 0x56, 0, 0, 0, 0];
 const FLOAT_TREE: &str = "Tree_float_5_4_3";
@@ -151,7 +152,18 @@ fn extent(level: VdbLevel) -> i32 {
     level.scale() as i32
 }
 
-/// Fills a dense volume over the bounding box of the active voxels and tiles.
+/// The index box a grid Occlux padded declares as its own (`occlux_box_min`/`_max`), if any.
+fn declared_box(grid: &Grid<f32>) -> Option<(IVec3, IVec3)> {
+    let corner = |key: &str| match grid.descriptor.meta_data.0.get(key) {
+        Some(MetadataValue::Vec3i(v)) => Some(IVec3::new(v.x, v.y, v.z)),
+        _ => None,
+    };
+    Some((corner(BOX_MIN)?, corner(BOX_MAX)?))
+}
+
+/// Fills a dense volume over the bounding box of the active voxels and tiles, within the box
+/// the grid declares as its own when Occlux padded it (the padding only serves renderers that
+/// fade to the background beyond the stored voxels).
 fn densify(path: &Path, grid: &Grid<f32>, opts: &LoadOptions) -> Result<(Volume, NonFiniteVoxels)> {
     let (mut lo, mut hi) = (IVec3::MAX, IVec3::MIN);
     for (corner, _, level) in grid.iter() {
@@ -159,7 +171,10 @@ fn densify(path: &Path, grid: &Grid<f32>, opts: &LoadOptions) -> Result<(Volume,
         lo = lo.min(c);
         hi = hi.max(c + IVec3::splat(extent(level) - 1));
     }
-    if lo.x > hi.x {
+    if let Some((box_lo, box_hi)) = declared_box(grid) {
+        (lo, hi) = (lo.max(box_lo), hi.min(box_hi));
+    }
+    if lo.cmpgt(hi).any() {
         return Err(Error::format(path, "the grid has no active voxels"));
     }
     let size = (hi - lo + IVec3::ONE).as_i64vec3();
@@ -168,12 +183,17 @@ fn densify(path: &Path, grid: &Grid<f32>, opts: &LoadOptions) -> Result<(Volume,
         check_budget(dims, opts.memory_budget).map_err(|e| Error::format(path, e.to_string()))?;
     let mut values = vec![0.0f32; count];
     for (corner, value, level) in grid.iter() {
-        let base = index_of(corner.to_array()) - lo;
-        let n = extent(level);
-        for k in base.z..base.z + n {
-            for j in base.y..base.y + n {
+        // The item's voxels within [lo, hi], relative to lo.
+        let first = index_of(corner.to_array());
+        let start = first.max(lo) - lo;
+        let end = (first + IVec3::splat(extent(level))).min(hi + IVec3::ONE) - lo;
+        if start.cmpge(end).any() {
+            continue;
+        }
+        for k in start.z..end.z {
+            for j in start.y..end.y {
                 let row = (j as usize + dims[1] * k as usize) * dims[0];
-                values[row + base.x as usize..row + (base.x + n) as usize].fill(value);
+                values[row + start.x as usize..row + end.x as usize].fill(value);
             }
         }
     }

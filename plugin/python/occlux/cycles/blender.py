@@ -18,7 +18,7 @@ from typing import Any
 
 import numpy as np
 
-from occlux._occlux import OccluxError, Scene, Volume, write_vdb
+from occlux._occlux import OccluxError, Scene, Volume
 
 from .common import (
     CYCLES_FIRST_SEED,
@@ -51,17 +51,23 @@ def bpy_module():
     return bpy
 
 
-def _value_grid(vdb_path: Path, spec: SceneSpec) -> np.ndarray:
-    """The ``value`` grid of ``vdb_path`` (read by the core) on the scene's voxels, shape
-    (nz, ny, nx); refused unless it lies on the lattice where the scene places the volume.
+def placed_value_grid(vdb_path: str | os.PathLike[str], spec: SceneSpec) -> Path:
+    """``vdb_path``, checked: its ``value`` grid (read by the core) must lie on the lattice
+    where the scene places the volume; refused otherwise.
 
     The core reads a sparse grid as the box of its active voxels: the grid must have the
     scene's spacing, and that box must start on a voxel of the scene's volume and end inside
-    it; voxels outside the box are 0 (inactive), as in the file."""
+    it. Occlux writes fog volumes padded by one voxel repeating the border (src/export/vdb.rs):
+    Occlux clamps trilinear samples to the border voxels up to the faces of the volume's box
+    and has no medium beyond, while Cycles interpolates towards the grid's background (0) over
+    the voxel past the last stored one; with the padding Cycles' samples inside the box are
+    Occlux's, and the material's box mask removes what lies beyond (see
+    :func:`.material.make_material`). So the file is rendered as it is."""
+    path = Path(vdb_path)
     try:
-        grid = Volume.load(vdb_path, grid="value")
+        grid = Volume.load(path, grid="value")
     except OccluxError as e:
-        raise HarnessError(f"{vdb_path}: no readable `value` grid ({e})") from e
+        raise HarnessError(f"{path}: no readable `value` grid ({e})") from e
     spacing = np.asarray(spec.spacing)
     offset = (np.asarray(grid.origin) - np.asarray(spec.origin)) / spacing
     start = np.round(offset).astype(int)
@@ -74,33 +80,11 @@ def _value_grid(vdb_path: Path, spec: SceneSpec) -> np.ndarray:
     )
     if not placed:
         raise HarnessError(
-            f"{vdb_path}: its grid is not placed as {spec.label} places the volume (voxels of "
+            f"{path}: its grid is not placed as {spec.label} places the volume (voxels of "
             f"size {grid.spacing} from {grid.origin}, not of size {spec.spacing} on the "
             f"{spec.dims} voxels from {spec.origin}): export it again"
         )
-    dense = np.zeros(dims[::-1], dtype=np.float32)  # (nz, ny, nx)
-    (i, j, k), (nx, ny, nz) = start, grid.dims
-    dense[k : k + nz, j : j + ny, i : i + nx] = grid.values
-    return dense
-
-
-def padded_value_grid(vdb_path: str | os.PathLike[str], spec: SceneSpec) -> Path:
-    """Writes the exported ``value`` grid grown by one voxel on every side, the new voxels
-    repeating their neighbours on the border, as STEM-cycles.vdb beside it (with the core's
-    VDB writer); returns its path.
-
-    Occlux clamps trilinear samples to the border voxels up to the faces of the volume's box
-    and has no medium beyond; Cycles interpolates towards the grid's background (0) over the
-    voxel past the last centre. With the repeated border, Cycles' samples inside the box are
-    Occlux's; the material's box mask removes what lies beyond (see
-    :func:`.material.make_material`)."""
-    path = Path(vdb_path)
-    values = _value_grid(path, spec)
-    origin = tuple(o - s for o, s in zip(spec.origin, spec.spacing, strict=True))
-    padded = Volume(np.pad(values, 1, mode="edge"), spacing=spec.spacing, origin=origin)
-    out = path.with_name(f"{path.stem}-cycles.vdb")
-    write_vdb(out, {"value": padded})
-    return out
+    return path
 
 
 def _free_persistent_data(scene) -> None:
@@ -255,7 +239,7 @@ def build_scene(
     spec = load_scene(scene, volume)
     bpy = bpy_module()
     remove_built()
-    grid_path = padded_value_grid(vdb_path, spec)
+    grid_path = placed_value_grid(vdb_path, spec)
     scene = bpy.data.scenes.new(f"{PREFIX}-scene")
     volume = bpy.data.volumes.new(f"{PREFIX}-volume")
     volume.filepath = str(grid_path.resolve())

@@ -54,15 +54,17 @@ def _ramp_positions(points: Sequence[TfPoint]) -> list[float]:
     return [(p.value - lo) / (hi - lo) for p in points]
 
 
-def _box_mask(tree, box: tuple[Rgb, Rgb]):
-    """A shader value that is 1 inside the axis-aligned ``box`` and 0 outside (the volume
-    object sits at the origin unrotated, so positions are the grid's world positions)."""
+def box_mask(tree, box: tuple[Rgb, Rgb]):
+    """A shader value that is 1 inside the axis-aligned ``box`` of the volume object's own
+    space (where its grids' transforms place the voxels, wherever the object is moved) and 0
+    outside: Occlux's medium ends at the box's faces, where Cycles would fade a padded grid
+    over one more voxel (the add-on's volume material uses it too)."""
     lo, hi = np.asarray(box[0]), np.asarray(box[1])
-    position = tree.nodes.new("ShaderNodeNewGeometry")
+    position = tree.nodes.new("ShaderNodeTexCoord")
     offset = tree.nodes.new("ShaderNodeVectorMath")
     offset.operation = "SUBTRACT"
     offset.inputs[1].default_value = _triple(0.5 * (lo + hi))
-    _link(tree, position.outputs["Position"], offset.inputs[0])
+    _link(tree, position.outputs["Object"], offset.inputs[0])
     scaled = tree.nodes.new("ShaderNodeVectorMath")
     scaled.operation = "DIVIDE"
     scaled.inputs[1].default_value = _triple(0.5 * (hi - lo))
@@ -131,10 +133,11 @@ def make_material(bpy, points: Sequence[TfPoint], box: tuple[Rgb, Rgb], g: float
     scale.operation = "MULTIPLY"
     scale.inputs[1].default_value = max_sigma
     _link(tree, optics.outputs["Alpha"], scale.inputs[0])
+    inside = box_mask(tree, box)
     density = tree.nodes.new("ShaderNodeMath")
     density.operation = "MULTIPLY"
     _link(tree, scale.outputs["Value"], density.inputs[0])
-    _link(tree, _box_mask(tree, box), density.inputs[1])
+    _link(tree, inside, density.inputs[1])
     volume = tree.nodes.new("ShaderNodeVolumePrincipled")
     _link(tree, density.outputs["Value"], volume.inputs["Density"])
     _link(tree, optics.outputs["Color"], volume.inputs["Color"])
@@ -160,7 +163,12 @@ def make_material(bpy, points: Sequence[TfPoint], box: tuple[Rgb, Rgb], g: float
         strength.operation = "MULTIPLY"
         strength.inputs[1].default_value = max_emission
         _link(tree, _emission_seen(tree, bounces), strength.inputs[0])
-        _link(tree, strength.outputs["Value"], volume.inputs["Emission Strength"])
+        # No medium beyond the box emits either.
+        masked = tree.nodes.new("ShaderNodeMath")
+        masked.operation = "MULTIPLY"
+        _link(tree, strength.outputs["Value"], masked.inputs[0])
+        _link(tree, inside, masked.inputs[1])
+        _link(tree, masked.outputs["Value"], volume.inputs["Emission Strength"])
     else:
         volume.inputs["Emission Strength"].default_value = 0.0
     output = tree.nodes.new("ShaderNodeOutputMaterial")
