@@ -66,8 +66,10 @@ def openvdb_grid(openvdb, volume: occlux.Volume, half: bool):
     grid = openvdb.FloatGrid(0.0)
     grid.name = "density"
     grid.gridClass = openvdb.GridClass.FOG_VOLUME
-    # occlux's values are (z, y, x); OpenVDB's copyFromArray takes (x, y, z).
-    grid.copyFromArray(np.ascontiguousarray(volume.values.transpose(2, 1, 0)), tolerance=0.0)
+    # occlux's values are (z, y, x); OpenVDB's copyFromArray takes (x, y, z). The same grid as
+    # Occlux writes: padded by one voxel repeating the border (src/export/vdb.rs).
+    padded = np.pad(volume.values, 1, mode="edge").transpose(2, 1, 0)
+    grid.copyFromArray(np.ascontiguousarray(padded), ijk=(-1, -1, -1), tolerance=0.0)
     voxel = volume.spacing[0]
     transform = openvdb.createLinearTransform(voxelSize=voxel)
     transform.postTranslate(volume.origin)
@@ -87,7 +89,7 @@ def main() -> None:
     scene = occlux.Scene.load(args.scene)
     volume = scene.load_volume()
     density = scene.classification.extinction(volume)
-    active = int(np.count_nonzero(density.values))
+    active = int(np.count_nonzero(np.pad(density.values, 1, mode="edge")))
     print(f"grid: {args.scene.stem} density, dims {density.dims}, {active} active voxels")
     print(f"OpenVDB {openvdb.LIBRARY_VERSION}, occlux {occlux.__version__}, {args.repeats} repeats")
 
