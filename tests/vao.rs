@@ -523,7 +523,21 @@ fn written_ao(volume: &Volume, method: &str, convention: &str) -> Volume {
     let [nx, ny, nz] = volume.dims();
     let mut values = vec![0.0f32; nx * ny * nz]; // inactive voxels read 0
     for (p, v, _) in grid.iter() {
-        values[p.x as usize + nx * (p.y as usize + ny * p.z as usize)] = v;
+        let c = [p.x as i32, p.y as i32, p.z as i32];
+        let inside = c
+            .iter()
+            .zip([nx, ny, nz])
+            .all(|(&c, n)| (0..n as i32).contains(&c));
+        if inside {
+            values[p.x as usize + nx * (p.y as usize + ny * p.z as usize)] = v;
+        } else {
+            // The padding repeats the border (src/export/vdb.rs).
+            assert_eq!(
+                v,
+                common::padded_at(&ao.openness, c),
+                "{method}: padding at {c:?}"
+            );
+        }
     }
     assert_eq!(
         values,
