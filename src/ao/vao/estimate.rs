@@ -104,8 +104,15 @@ impl BoxStats {
     /// Variance from the moments, clamped at 0 against rounding.
     #[inline]
     pub fn variance(&self) -> f32 {
-        (self.second - self.mean * self.mean).max(0.0)
+        variance(self.mean, self.second)
     }
+}
+
+/// The variance from the mean and the mean of the squares, at least 0 (rounding can make the
+/// difference slightly negative).
+#[inline]
+pub fn variance(mean: f32, second: f32) -> f32 {
+    (second - mean * mean).max(0.0)
 }
 
 /// Saturation of beta, the CDF reconstruction's exponent (a mean at an extreme would make it
