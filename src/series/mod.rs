@@ -256,6 +256,8 @@ fn with_frames_of(tree: &Value, frames: &Option<Vec<PathBuf>>) -> Value {
         if !volume.contains_key("phantom") {
             volume.insert("path".into(), Value::from(first.to_string_lossy().as_ref()));
         }
+        // The frames given override the scene's own, which are then not looked for.
+        volume.remove("frames");
     }
     tree
 }
