@@ -478,8 +478,11 @@ def test_a_scene_object_builds_the_same_blender_scene(phantom, tmp_path, openvdb
     oc.check_camera(built, scene.describe()["camera"])
     assert built.cycles.volume_bounces == 2
     assert sorted(o.data.type for o in built.objects if o.type == "LIGHT") == ["POINT", "SUN"]
-    # The padded grid: the scene's voxels plus one repeated on every side, placed one voxel out.
-    grid = openvdb.read(str(tmp_path / "phantom-cycles.vdb"), "value")
+    # Cycles renders the file as written: the scene's voxels plus one repeated on every side
+    # (src/export/vdb.rs), placed one voxel out.
+    (volume_object,) = (o for o in built.objects if o.type == "VOLUME")
+    assert Path(volume_object.data.filepath) == (tmp_path / "phantom.vdb").resolve()
+    grid = openvdb.read(str(tmp_path / "phantom.vdb"), "value")
     np.testing.assert_allclose(grid.transform.voxelSize(), volume.spacing, rtol=1e-6)
     corner = np.asarray(volume.origin) - np.asarray(volume.spacing)
     ijk = np.asarray(grid.transform.worldToIndex(tuple(corner)))
