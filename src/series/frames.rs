@@ -133,14 +133,26 @@ fn split_digits(s: &str) -> (&str, &str) {
 /// A file name as text around its last run of digits: `step_0012.nrrd` is `step_`, 12,
 /// `.nrrd` (the last run, so a `.nii` after a number or a dataset's year before it do not
 /// count). None when the name has no digits.
-fn numbered(path: &Path) -> Option<(String, u64, String)> {
+fn numbered(path: &Path) -> Option<Numbered> {
     let name = path.file_name()?.to_string_lossy().into_owned();
     let end = name.rfind(|c: char| c.is_ascii_digit())? + 1;
     let start = name[..end]
         .rfind(|c: char| !c.is_ascii_digit())
         .map_or(0, |i| i + 1);
-    let number = name[start..end].parse().ok()?;
-    Some((name[..start].to_owned(), number, name[end..].to_owned()))
+    Some(Numbered {
+        prefix: name[..start].to_owned(),
+        number: name[start..end].parse().ok()?,
+        width: end - start,
+        suffix: name[end..].to_owned(),
+    })
+}
+
+/// A file name split around its last number, `width` its digits (zero padding included).
+struct Numbered {
+    prefix: String,
+    number: u64,
+    width: usize,
+    suffix: String,
 }
 
 /// A numbered sequence (every name the same but for its last number) must step evenly: the
@@ -152,8 +164,8 @@ fn check_numbering(files: &[PathBuf]) -> Result<()> {
     let mut numbers = Vec::with_capacity(files.len());
     for file in files {
         match numbered(file) {
-            Some((prefix, n, suffix)) if prefix == first.0 && suffix == first.2 => {
-                numbers.push((n, file))
+            Some(n) if n.prefix == first.prefix && n.suffix == first.suffix => {
+                numbers.push((n.number, file))
             }
             // Not one numbered sequence: the natural order is all there is to check.
             _ => return Ok(()),
@@ -182,18 +194,18 @@ fn check_numbering(files: &[PathBuf]) -> Result<()> {
         return Ok(());
     }
     // Named as the files would be, with the first file's zero padding.
-    let width = first_number_width(files[0].as_path());
+    let (prefix, width, suffix) = (&first.prefix, first.width, &first.suffix);
     let names: Vec<String> = missing
         .iter()
         .take(LISTED)
-        .map(|n| format!("{}{n:0width$}{}", first.0, first.2))
+        .map(|n| format!("{prefix}{n:0width$}{suffix}"))
         .collect();
     let more = missing.len().saturating_sub(LISTED);
     Err(Error::param(
         "frames",
         format!(
             "the numbered sequence {}* ({} files, step {step}) misses {}{}",
-            first.0,
+            prefix,
             files.len(),
             names.join(", "),
             if more > 0 {
@@ -203,19 +215,6 @@ fn check_numbering(files: &[PathBuf]) -> Result<()> {
             }
         ),
     ))
-}
-
-/// The number of digits of the last number in a file's name.
-fn first_number_width(path: &Path) -> usize {
-    let name = path.file_name().map(|n| n.to_string_lossy().into_owned());
-    let name = name.unwrap_or_default();
-    let end = name
-        .rfind(|c: char| c.is_ascii_digit())
-        .map_or(0, |i| i + 1);
-    let start = name[..end]
-        .rfind(|c: char| !c.is_ascii_digit())
-        .map_or(0, |i| i + 1);
-    end - start
 }
 
 #[cfg(test)]

@@ -51,7 +51,7 @@ pub(super) fn check_header(path: &Path, file: std::fs::File) -> Result<()> {
         // A grid's data follows its descriptor, and the next descriptor follows the data: each
         // grid moves on through the file, so a corrupt count cannot loop over the same bytes
         // (found by fuzzing: offsets pointing back made 4e9 grids re-read one region).
-        let here = walk.left().map(|left| walk.len - left)?;
+        let here = walk.position()?;
         if grid_pos < here || end_pos <= grid_pos {
             return Err(walk.corrupt(format!(
                 "a grid's data at {grid_pos}..{end_pos} does not follow its descriptor (at {here})"
@@ -129,12 +129,14 @@ impl<R: BufRead + Seek> Walk<'_, R> {
         )
     }
 
-    fn left(&mut self) -> Result<u64> {
-        let at = self
-            .reader
+    fn position(&mut self) -> Result<u64> {
+        self.reader
             .stream_position()
-            .map_err(|e| Error::io(self.path, e))?;
-        Ok(self.len.saturating_sub(at))
+            .map_err(|e| Error::io(self.path, e))
+    }
+
+    fn left(&mut self) -> Result<u64> {
+        Ok(self.len.saturating_sub(self.position()?))
     }
 
     /// Refuses `bytes` more than the file holds from here.
