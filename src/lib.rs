@@ -15,6 +15,7 @@ pub mod json;
 pub mod lights;
 pub mod octahedral;
 pub mod pipeline;
+pub mod plan;
 pub mod progress;
 pub mod registry;
 pub mod render;

@@ -6,13 +6,14 @@ use occlux::ao::reference::AoVariant;
 use occlux::ao::sweep::geometric::GeometricParams;
 use occlux::ao::AoVolumeParams;
 use occlux::eval::{
-    bench, chart, dos_accuracy, ipsvi_accuracy, sweep_accuracy, sweep_bench, vao_accuracy,
-    vao_bench,
+    bench, chart, dos_accuracy, ipsvi_accuracy, plan_check, sweep_accuracy, sweep_bench,
+    vao_accuracy, vao_bench,
 };
 use occlux::export::exr::Precision;
 use occlux::export::vdb::{Compression, VdbOptions};
 use occlux::gpu::{Compute, DeviceChoice};
 use occlux::pipeline::{self, OutputOptions, Outputs};
+use occlux::plan;
 use occlux::progress;
 use occlux::render::reference::{self, Estimator, ReferenceParams};
 use occlux::scene::Scene;
@@ -155,6 +156,15 @@ enum Command {
     /// path-traced truth; the Pareto front and the speed-up over Cycles at equal error; CSV,
     /// JSON, SVG and PNG in OUT/.
     Chart(chart::ChartArgs),
+    /// Pick the cheapest configuration (every registered method at its chart settings, and
+    /// Occlux's Monte Carlo) whose relative RMSE against the scene's path-traced truth stays
+    /// within --error, from a pilot render at a small size; says what it chose and why, and
+    /// the `[render]` to paste (a scene's `method = "auto"` does this when it renders).
+    Plan(plan::command::PlanArgs),
+    /// Validate the planner against exhaustive search: per scene and budget, whether its
+    /// choice stays within the budget at the full size, and its time over the fastest
+    /// configuration that does; Markdown table and JSON.
+    PlanCheck(plan_check::PlanCheckArgs),
     /// Occlusion sweeping's geometric mode at the paper's sizes on the box-and-sphere phantom
     /// (CPU): the signed distance alone, with the combined occlusion, with the eight octants;
     /// medians, the occlusion's cost over the signed distance's; table and JSON.
@@ -423,6 +433,8 @@ fn run(cli: Cli) -> occlux::Result<()> {
         Command::SweepAccuracy(args) => sweep_accuracy::run(&args, quiet),
         Command::IpsviAccuracy(args) => ipsvi_accuracy::run(&args, quiet),
         Command::Chart(args) => chart::run(&args, quiet),
+        Command::Plan(args) => plan::command::run(&args, quiet),
+        Command::PlanCheck(args) => plan_check::run(&args, quiet),
         Command::BenchSweep(args) => sweep_bench::run(&args, quiet),
         Command::Reference {
             scene,

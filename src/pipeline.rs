@@ -8,12 +8,15 @@ use crate::export::png::write_png_preview;
 use crate::export::usd::{write_usda, StageDescription};
 use crate::export::vdb::{write_vdb, VdbGrid, VdbOptions};
 use crate::gpu::{Compute, DeviceChoice};
+use crate::plan::measure::Subject;
+use crate::plan::{Choice, Planned};
 use crate::progress::{self, report_written, say, Bar, Progress};
 use crate::render::ao_shaded::{AO_GRID, AO_OCTANT_GRIDS, AO_VARIANCE_GRID, SDF_GRID};
 use crate::render::reference::{Estimator, ReferenceImage, ReferenceParams};
 use crate::render::{Grid, MethodInput, RenderImage, Rendered};
 use crate::scene::Scene;
 use crate::volume::Volume;
+use std::borrow::Cow;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -50,7 +53,10 @@ pub fn run(
     for line in &loaded.notices {
         progress::notice(quiet, line);
     }
-    let (scene, volume) = (&loaded.scene, &loaded.volume);
+    let volume = &loaded.volume;
+    let scene = &*settle(&loaded.scene, volume, &compute, &|line: &str| {
+        say(quiet, format_args!("{line}"))
+    })?;
     let [nx, ny, nz] = volume.dims();
     say(
         quiet,
@@ -82,7 +88,42 @@ pub fn run(
     Ok(())
 }
 
-/// Renders a scene's method for an already loaded volume.
+/// An `auto` scene planned (the planner's progress, what it chose and why, to `say`): the
+/// scene with the chosen method and its [`crate::plan::Planned`]; any other scene as it is.
+pub fn settle<'a>(
+    scene: &'a Scene,
+    volume: &Volume,
+    compute: &Compute,
+    say: &dyn Fn(&str),
+) -> Result<Cow<'a, Scene>> {
+    let Some(budget) = scene.auto.filter(|_| scene.planned.is_none()) else {
+        return Ok(Cow::Borrowed(scene));
+    };
+    let lut = scene.classification.bake(volume);
+    let subject = Subject {
+        scene,
+        volume,
+        lut: &lut,
+        compute,
+    };
+    let plan = crate::plan::plan(&subject, &budget, &|line: &str| {
+        say(&format!("planning: {line}"))
+    })?;
+    say(&plan.explain());
+    let choice = plan.choice().clone();
+    let mut settled = scene.clone();
+    if let Choice::Method { method, .. } = &choice {
+        settled.method = method.clone();
+    }
+    settled.planned = Some(Planned {
+        record: plan.record(),
+        choice,
+    });
+    Ok(Cow::Owned(settled))
+}
+
+/// Renders a scene's method for an already loaded volume; an `auto` scene must be settled
+/// ([`settle`]) first, so that what is written says what rendered it.
 pub fn render(
     scene: &Scene,
     volume: &Volume,
@@ -90,6 +131,21 @@ pub fn render(
     progress: &dyn Progress,
 ) -> Result<Rendered> {
     let lut = scene.classification.bake(volume);
+    if let Some(planned) = &scene.planned {
+        let subject = Subject {
+            scene,
+            volume,
+            lut: &lut,
+            compute,
+        };
+        return planned.choice.render(&subject, progress);
+    }
+    if scene.auto.is_some() {
+        return Err(Error::param(
+            "render.method",
+            "\"auto\" is planned before it renders (pipeline::settle)",
+        ));
+    }
     let input = MethodInput {
         volume,
         classification: &scene.classification,
@@ -244,6 +300,7 @@ pub fn export(
     let vdb_name = format!("{stem}.vdb");
     let extinction = scene.classification.extinction(volume)?;
     let grids = export_grids(&rendered.grids, &extinction, volume);
+    let vdb = &planned_precision(scene, &grids, vdb);
     let names: Vec<&str> = grids.iter().map(|g| g.name).collect();
     let stage = StageDescription::new(
         &vdb_name,
@@ -261,6 +318,19 @@ pub fn export(
     let meta = header_metadata(scene);
     write_image_files(image, &render_layers(image), &meta, &mut set, stem, output)?;
     set.commit()
+}
+
+/// An `auto` scene's grids are stored as half floats when its error budget is at least
+/// [`crate::plan::HALF_FLOAT_BUDGET`] and every value fits one: a half float's relative
+/// rounding of 2^-11 is far inside such a budget, and the file is half the size.
+fn planned_precision(scene: &Scene, grids: &[VdbGrid], vdb: &VdbOptions) -> VdbOptions {
+    let allows = scene
+        .auto
+        .is_some_and(|budget| budget.error >= crate::plan::HALF_FLOAT_BUDGET);
+    VdbOptions {
+        half: vdb.half || (allows && grids.iter().all(VdbGrid::fits_half)),
+        ..*vdb
+    }
 }
 
 /// The grids an export writes: `density` (the classified `extinction`), `value` (`volume`) and
@@ -349,7 +419,12 @@ pub fn header_metadata(scene: &Scene) -> BTreeMap<String, String> {
     let mut meta = BTreeMap::new();
     meta.insert("occlux/version".into(), env!("CARGO_PKG_VERSION").into());
     meta.insert("occlux/camera".into(), scene.camera.describe().to_string());
-    meta.insert("occlux/method".into(), scene.method.to_json().to_string());
+    match &scene.planned {
+        Some(planned) => insert_plan(&mut meta, &planned.record),
+        None => {
+            meta.insert("occlux/method".into(), scene.method.to_json().to_string());
+        }
+    }
     // The classification as applied: its window on the volume's values resolved.
     meta.insert(
         "occlux/classification".into(),
@@ -362,9 +437,46 @@ pub fn header_metadata(scene: &Scene) -> BTreeMap<String, String> {
     meta
 }
 
+/// An `auto` scene's plan record into EXR header `meta`: `occlux/plan`, and the choice as
+/// `occlux/method` (what rendered the image, not the scene's placeholder).
+pub fn insert_plan(meta: &mut BTreeMap<String, String>, record: &serde_json::Value) {
+    meta.insert("occlux/method".into(), record["method"].to_string());
+    meta.insert("occlux/plan".into(), record.to_string());
+}
+
 /// Output files are named after the scene file.
 pub fn stem(scene: &Path) -> String {
     scene
         .file_stem()
         .map_or("render".into(), |s| s.to_string_lossy().into_owned())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::plan::{Budget, Scattering};
+
+    #[test]
+    fn auto_scenes_store_half_floats_where_the_budget_allows_and_the_values_fit() {
+        let scene = |error: Option<f64>| {
+            let mut scene = Scene::parse(
+                "[volume]\nphantom = \"sphere\"\nsize = 4\n[camera]\nwidth = 4\nheight = 4\n",
+                Path::new("."),
+            )
+            .unwrap();
+            scene.auto = error.map(|e| Budget::new(e, Scattering::Single));
+            scene
+        };
+        let small =
+            Volume::new([2, 1, 1], glam::Vec3::ONE, glam::Vec3::ZERO, vec![0.5, 1.0]).unwrap();
+        let huge =
+            Volume::new([2, 1, 1], glam::Vec3::ONE, glam::Vec3::ZERO, vec![0.5, 1e6]).unwrap();
+        let grids = |v| vec![VdbGrid::from_volume("density", v)];
+        let float = VdbOptions::default();
+        let half = |error, v| planned_precision(&scene(error), &grids(v), &float).half;
+        assert!(half(Some(0.05), &small));
+        assert!(!half(Some(0.005), &small), "a tight budget keeps float32");
+        assert!(!half(Some(0.05), &huge), "1e6 does not fit a half float");
+        assert!(!half(None, &small), "a fixed method keeps what was asked");
+    }
 }

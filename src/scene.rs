@@ -36,7 +36,9 @@
 //! `[render]` is read through the method registry ([`crate::registry`]): `method` picks the
 //! method, whose parameters struct takes the other keys (unknown ones are errors naming the
 //! methods that do take them), checked against the registry's ranges. `occlux methods` lists
-//! every method with its parameters, defaults and ranges.
+//! every method with its parameters, defaults and ranges. `method = "auto"` with `error = E`
+//! (and optionally `scattering = "multiple"`, `pilot = 64`) leaves the choice to the planner
+//! ([`crate::plan`]) when the scene is rendered.
 
 use crate::camera::{Camera, Projection};
 use crate::classify::{
@@ -45,6 +47,7 @@ use crate::classify::{
 };
 use crate::error::{Error, Result};
 use crate::lights::{Light, Lighting};
+use crate::plan::{Budget, Planned, Scattering};
 pub use crate::registry::Method;
 use crate::series::FrameSpec;
 use crate::volume::{self, phantom, LoadOptions, NonFinite, RawSpec, ScalarType, Volume};
@@ -68,7 +71,14 @@ pub struct Scene {
     /// are HU ([`crate::volume::SourceInfo::hounsfield`]), normalised otherwise.
     pub units_from_data: Option<String>,
     pub lighting: Lighting,
+    /// The method; with `auto`, a placeholder that the planner's choice replaces when the
+    /// scene is rendered ([`crate::pipeline::run`]).
     pub method: Method,
+    /// `method = "auto"`: what the planner must meet.
+    pub auto: Option<Budget>,
+    /// What the planner chose, set when an `auto` scene is settled for rendering
+    /// ([`crate::pipeline::settle`]): the choice, and its record for the EXR header.
+    pub planned: Option<Planned>,
 }
 
 /// How [`Scene::load`] frames the visible content.
@@ -171,7 +181,10 @@ impl Scene {
             "classification": crate::json::tree(&self.classification),
             "camera": self.camera.describe(),
             "lighting": crate::json::tree(&self.lighting),
-            "method": self.method.to_json(),
+            "method": match &self.auto {
+                Some(budget) => json!({ "method": "auto", "budget": crate::json::tree(budget) }),
+                None => self.method.to_json(),
+            },
         })
     }
 
@@ -404,9 +417,11 @@ enum LightSection {
 }
 
 impl SceneFile {
-    fn resolve(self, base: &Path) -> Result<Scene> {
+    fn resolve(mut self, base: &Path) -> Result<Scene> {
         let (classification, units_from_data) = self.classification.resolve()?;
         let (camera, framing) = self.camera.resolve()?;
+        let auto = auto_budget(&mut self.render)?;
+        let method = Method::from_table(self.render)?;
         let scene = Scene {
             volume: self.volume.resolve(base)?,
             classification,
@@ -422,14 +437,81 @@ impl SceneFile {
                     .collect::<Result<_>>()?,
                 background: self.background.map_or(Vec3::ZERO, Colour::rgb),
             },
-            method: Method::from_table(self.render)?,
+            auto,
+            method,
+            planned: None,
         };
         scene.lighting.validate()?;
         // A method lit by fewer kinds of light than the scene has is refused here, not after
-        // the volume has loaded.
-        scene.method.spec().check_lights(&scene.lighting)?;
+        // the volume has loaded; the planner picks among those that render some of them.
+        if scene.auto.is_none() {
+            scene.method.spec().check_lights(&scene.lighting)?;
+        }
         Ok(scene)
     }
+}
+
+/// `method = "auto"`: takes its keys (`error`, `scattering`, `pilot`) out of `[render]`,
+/// leaving it empty for the placeholder method; None for any other method.
+fn auto_budget(render: &mut Map<String, Value>) -> Result<Option<Budget>> {
+    if render.get("method").and_then(Value::as_str) != Some("auto") {
+        return Ok(None);
+    }
+    render.remove("method");
+    let error = match render.remove("error") {
+        Some(Value::Number(n)) => n.as_f64().unwrap_or(f64::NAN),
+        Some(other) => {
+            return Err(Error::param(
+                "render.error",
+                format!("must be a number, got {other}"),
+            ))
+        }
+        None => {
+            return Err(Error::param(
+                "render.error",
+                "method = \"auto\" needs an error budget: the largest relative RMSE against \
+                 the path-traced truth, e.g. error = 0.05",
+            ))
+        }
+    };
+    let scattering = match render.remove("scattering") {
+        None => Scattering::Single,
+        Some(Value::String(name)) => Scattering::from_name(&name).ok_or_else(|| {
+            Error::param(
+                "render.scattering",
+                format!("must be \"single\" or \"multiple\", got \"{name}\""),
+            )
+        })?,
+        Some(other) => {
+            return Err(Error::param(
+                "render.scattering",
+                format!("must be \"single\" or \"multiple\", got {other}"),
+            ))
+        }
+    };
+    let mut budget = Budget::new(error, scattering);
+    if let Some(pilot) = render.remove("pilot") {
+        budget.pilot = pilot
+            .as_u64()
+            .and_then(|p| u32::try_from(p).ok())
+            .ok_or_else(|| {
+                Error::param(
+                    "render.pilot",
+                    format!("must be a whole number of pixels, got {pilot}"),
+                )
+            })?;
+    }
+    if let Some(key) = render.keys().next() {
+        return Err(Error::param(
+            format!("render.{key}"),
+            "method = \"auto\" takes error, scattering and pilot; the planner sets the rest",
+        ));
+    }
+    budget.validate().map_err(|e| match e {
+        Error::Param { key, message } => Error::param(format!("render.{key}"), message),
+        other => other,
+    })?;
+    Ok(Some(budget))
 }
 
 impl VolumeSource {

@@ -1222,3 +1222,63 @@ fn series_refuses_a_gap_or_an_impossible_request_before_writing() {
     );
     assert!(!out.exists(), "nothing written");
 }
+
+#[test]
+fn plan_says_what_it_chose_and_why() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = dir.path().join("sun.toml");
+    std::fs::write(
+        &scene,
+        "[volume]\nphantom = \"ct\"\nsize = 24\n[camera]\nwidth = 32\nheight = 24\n\
+         [[lights]]\ntype = \"directional\"\ndirection = [-0.3, -1.0, 1.2]\nirradiance = 3\n\
+         [render]\nmethod = \"dos\"\n",
+    )
+    .unwrap();
+    let json = dir.path().join("plan.json");
+    let run = occlux(&[
+        "plan",
+        scene.to_str().unwrap(),
+        "--error",
+        "0.2",
+        "--pilot",
+        "16",
+        "--device",
+        "cpu",
+        "--json",
+        json.to_str().unwrap(),
+    ]);
+    let stdout = String::from_utf8_lossy(&run.stdout);
+    assert!(
+        run.status.success(),
+        "{}",
+        String::from_utf8_lossy(&run.stderr)
+    );
+    assert!(
+        stdout.contains("chose ") && stdout.contains("budget: relative RMSE 0.2"),
+        "{stdout}"
+    );
+    let plan: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    let chosen = &plan["estimates"][plan["chosen"].as_u64().unwrap() as usize];
+    assert_eq!(chosen["meets"], true, "{plan}");
+    assert!(chosen["error"].as_f64().unwrap() <= 0.2);
+    // What to paste: a method's [render], or the reference command.
+    assert!(
+        stdout.contains("[render]\nmethod = ") || stdout.contains("occlux reference SCENE"),
+        "{stdout}"
+    );
+    // The scene's own method (DOS, ambient light only) does not stop the plan; a bad budget does.
+    let bad = occlux(&[
+        "plan",
+        scene.to_str().unwrap(),
+        "--error",
+        "0",
+        "--device",
+        "cpu",
+    ]);
+    let stderr = String::from_utf8_lossy(&bad.stderr);
+    assert!(
+        !bad.status.success() && stderr.contains("error budget"),
+        "{stderr}"
+    );
+}

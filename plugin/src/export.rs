@@ -1,6 +1,6 @@
 //! Stages and whole exports: `occlux.stage_description` and `occlux.export`.
 
-use crate::render::{compute, render_scene, scene_volume};
+use crate::render::{compute, render_scene, scene_volume, settled};
 use crate::scene::PyScene;
 use crate::volume::PyVolume;
 use crate::{py_err, OccluxError};
@@ -83,7 +83,7 @@ pub fn export(
     output.validate().map_err(py_err)?;
     let compute = compute(py, device)?;
     let (scene, volume) = scene_volume(py, &scene.inner, volume)?;
-    let scene = &*scene;
+    let scene = &*settled(py, scene, &volume, &compute)?;
     let rendered = render_scene(py, scene, &volume, &compute, progress)?;
     py.detach(|| pipeline::export(&rendered, scene, &volume, &out_dir, stem, &output, &vdb))
         .map_err(py_err)

@@ -29,6 +29,8 @@ use std::sync::Mutex;
 pub struct PyRenderResult {
     image: RenderImage,
     device: String,
+    /// A `method = "auto"` scene's plan record, written into the EXR header.
+    plan: Option<serde_json::Value>,
 }
 
 #[pymethods]
@@ -71,6 +73,13 @@ impl PyRenderResult {
     #[getter]
     fn shadow<'py>(this: &Bound<'py, Self>) -> PyResult<Option<Bound<'py, PyArray3<f32>>>> {
         factor(this, "shadow")
+    }
+
+    /// For a scene with `method = "auto"`: what the planner chose, as JSON text (the
+    /// configuration, the budget, the predicted error and time); None otherwise.
+    #[getter]
+    fn plan(&self) -> Option<String> {
+        self.plan.as_ref().map(|p| p.to_string())
     }
 
     #[getter]
@@ -149,6 +158,23 @@ pub(crate) fn scene_volume<'a>(
             Ok((Cow::Owned(loaded.scene), Cow::Owned(loaded.volume)))
         }
     }
+}
+
+/// The scene settled for rendering: a `method = "auto"` scene planned (quietly, without the
+/// GIL; the choice is in the result's `plan` and the EXR header), any other as it is.
+pub(crate) fn settled<'a>(
+    py: Python<'_>,
+    scene: Cow<'a, Scene>,
+    volume: &Volume,
+    compute: &Compute,
+) -> PyResult<Cow<'a, Scene>> {
+    if scene.auto.is_none() {
+        return Ok(scene);
+    }
+    let planned = py
+        .detach(|| pipeline::settle(&scene, volume, compute, &|_: &str| {}).map(Cow::into_owned))
+        .map_err(py_err)?;
+    Ok(Cow::Owned(planned))
 }
 
 /// Forwards the core's progress to a Python callable `progress(done, total)`, taking the GIL
@@ -233,12 +259,18 @@ pub fn render(
 ) -> PyResult<PyRenderResult> {
     let compute = compute(py, device)?;
     let (scene, volume) = scene_volume(py, &scene.inner, volume)?;
+    let scene = settled(py, scene, &volume, &compute)?;
     let image = render_scene(py, &scene, &volume, &compute, progress)?.image;
     let device = match compute {
         Compute::Gpu(ctx) => ctx.describe(),
         Compute::Cpu => "cpu".into(),
     };
-    Ok(PyRenderResult { image, device })
+    let plan = scene.planned.as_ref().map(|p| p.record.clone());
+    Ok(PyRenderResult {
+        image,
+        device,
+        plan,
+    })
 }
 
 /// Writes a render as a multilayer OpenEXR, atomically: layers `beauty` (R, G, B, A; float16
@@ -255,7 +287,10 @@ pub fn write_exr(
     float32: bool,
 ) -> PyResult<()> {
     let image = &result.image;
-    let metadata = header_metadata(&scene.inner);
+    let mut metadata = header_metadata(&scene.inner);
+    if let Some(record) = &result.plan {
+        pipeline::insert_plan(&mut metadata, record);
+    }
     let precision = if float32 {
         Precision::Float
     } else {

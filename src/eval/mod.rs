@@ -5,6 +5,7 @@ pub mod cycles;
 pub mod dos_accuracy;
 pub mod error_map;
 pub mod ipsvi_accuracy;
+pub mod plan_check;
 pub mod sweep_accuracy;
 pub mod sweep_bench;
 pub mod vao_accuracy;

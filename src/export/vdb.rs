@@ -192,6 +192,11 @@ impl<'a> VdbGrid<'a> {
         Ok(())
     }
 
+    /// Every value fits a half float.
+    pub fn fits_half(&self) -> bool {
+        self.values.iter().all(|v| v.abs() <= HALF_MAX)
+    }
+
     fn voxel_of(&self, index: usize) -> [usize; 3] {
         let [nx, ny, _] = self.dims;
         [index % nx, (index / nx) % ny, index / (nx * ny)]

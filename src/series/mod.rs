@@ -161,6 +161,14 @@ pub fn plan(
     check_writable(out_dir)?;
     let base = std::path::absolute(base).map_err(|e| Error::io(base, e))?;
     let scene = Scene::from_value(with_frames_of(&tree, &frames), &base)?;
+    if scene.auto.is_some() {
+        // One method for every frame, so that frames differ only by their data.
+        return Err(Error::param(
+            "render.method",
+            "\"auto\" plans one volume, and a series renders every frame with one method: \
+             run `occlux plan` on a frame and put its choice in the scene",
+        ));
+    }
     // Each frame sets its own path; the frames are the manifest's.
     let mut tree = tree;
     if let Some(volume) = tree.get_mut("volume").and_then(Value::as_object_mut) {

@@ -495,3 +495,30 @@ def test_ipsvi_renders_shadows_that_agree_with_the_single_scattering_reference()
     assert error < 0.05 and no_shadow > 4 * error, (error, no_shadow)
     with pytest.raises(occlux.OccluxError, match="ambient"):
         occlux.render(occlux.Scene.from_toml(scene_text().replace("gradient", "ipsvi")))
+
+
+def test_an_auto_scene_renders_the_planners_choice_and_says_so(tmp_path: Path, oiio) -> None:
+    text = scene_text(size=(32, 24)).replace(
+        'method = "gradient"', 'method = "auto"\nerror = 0.2\npilot = 16'
+    )
+    scene = occlux.Scene.from_toml(text)
+    result = occlux.render(scene, device="cpu")
+    plan = json.loads(result.plan)
+    assert plan["budget"]["error"] == 0.2
+    assert plan["predicted_error"] <= 0.2
+    # Both lights, single scattering: the random walk at 0 bounces is the truth.
+    assert plan["truth"] == "multiple"
+    assert np.isfinite(result.beauty).all()
+    path = tmp_path / "auto.exr"
+    occlux.write_exr(path, result, scene)
+    image = oiio.ImageInput.open(str(path))
+    try:
+        spec = image.spec()
+        header_plan = json.loads(spec.getattribute("occlux/plan"))
+        header_method = json.loads(spec.getattribute("occlux/method"))
+    finally:
+        image.close()
+    assert header_plan == plan
+    assert header_method == plan["method"]
+    # A scene with a fixed method has no plan.
+    assert occlux.render(occlux.Scene.from_toml(scene_text(size=(8, 8))), device="cpu").plan is None

@@ -200,6 +200,13 @@ class RenderResult:
         ``shadow.A``). ``None`` for methods that compute none."""
 
     @property
+    def plan(self) -> str | None:
+        """For a scene with ``method = "auto"``: what the planner chose, as JSON text
+        (``method``, ``chosen``, ``budget``, ``truth``, ``predicted_error``,
+        ``predicted_seconds``), also written into the EXR header as ``occlux/plan``; ``None``
+        for a scene with a fixed method."""
+
+    @property
     def width(self) -> int: ...
     @property
     def height(self) -> int: ...

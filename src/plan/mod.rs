@@ -1,0 +1,602 @@
+//! The planner (`occlux plan SCENE --error E`, `method = "auto"`): the cheapest configuration
+//! whose error against the scene's path-traced truth stays within a budget, Monte Carlo
+//! included, and why.
+//!
+//! The truth is the scene's own lights with single scattering (Cycles' default of no volume
+//! bounces: the `ambient`, `single` or, with both kinds of light, the `multiple` estimator at
+//! 0 bounces) or, on request, multiple scattering (8 bounces).
+//!
+//! Errors are measured, not guessed: a pilot renders the scene at a small image size (the
+//! same view, `pilot` pixels on the longer side), the truth at enough samples that its own
+//! noise is a third of the budget, and every registered method at each of its chart settings
+//! (`MethodSpec::chart`: a method joins by registering). A method's error is its relative
+//! RMSE over the volume's pixels beyond the truth's noise, which carries over to the full
+//! size because both sample the same rays through pixel centres. Monte Carlo's error is its
+//! noise, known from the truth's per-sample variance: `noise_per_sample / sqrt(spp)`, so its
+//! samples per pixel follow from the budget. Times are predicted from the pilot by a cost law
+//! per configuration, a fixed cost (AO volumes, set-up) plus a cost per pixel (per pixel and
+//! sample for Monte Carlo), fitted through renders at two sizes on this machine and device.
+//! Statistics of the scene (lights, albedo, optical depths; [`stats`]) explain the choice.
+//!
+//! A fitted statistical model of error from scene statistics would be tuned to the volumes
+//! it was fitted on; the pilot measures the scene at hand, for about the cost of a few
+//! renders (printed).
+
+pub mod command;
+pub mod measure;
+pub mod stats;
+
+use crate::error::{Error, Result};
+use crate::gpu::Compute;
+use crate::lights::{LightKind, Lighting};
+use crate::progress::Progress;
+use crate::registry::{Method, METHODS};
+use crate::render::reference::{Estimator, MAX_SPP};
+use crate::render::Rendered;
+use measure::{monte_carlo, pixels, render_method, resized, CostLaw, Subject, Truth};
+use serde::Serialize;
+use stats::SceneStats;
+use std::time::Instant;
+
+/// Default pilot image size (longer side, pixels).
+pub const DEFAULT_PILOT: u32 = 64;
+/// Volume bounces of the multiple-scattering truth (the chart's and the engine references').
+pub const BOUNCES: u32 = 8;
+/// Share of the budget a method's pilot error may use: the rest covers what changes from the
+/// pilot's size to the full size (edges, thin features a few pixels wide).
+const METHOD_MARGIN: f64 = 0.9;
+/// The same for Monte Carlo, whose error is predicted from many pixels' variance and carries
+/// over closely: its time grows as 1 / margin^2, so the margin is slight.
+const MONTE_CARLO_MARGIN: f64 = 0.95;
+/// The least error budget for which an `auto` scene's exported grids are half floats: their
+/// relative rounding, 2^-11 = 4.9e-4, is then a twentieth of the budget or less.
+pub const HALF_FLOAT_BUDGET: f64 = 0.01;
+/// Samples of the first pilot truth, from which the noise per sample and the needed samples
+/// follow; and the most the pilot's truth takes.
+const FIRST_PILOT_SPP: u32 = 64;
+const MOST_PILOT_SPP: u32 = 16384;
+
+/// The light transport the truth models.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, clap::ValueEnum)]
+#[serde(rename_all = "lowercase")]
+pub enum Scattering {
+    /// Light scattered once (Cycles' default: no volume bounces).
+    Single,
+    /// A random walk of 8 bounces.
+    Multiple,
+}
+
+impl Scattering {
+    pub fn name(self) -> &'static str {
+        match self {
+            Scattering::Single => "single",
+            Scattering::Multiple => "multiple",
+        }
+    }
+
+    pub fn from_name(name: &str) -> Option<Self> {
+        match name {
+            "single" => Some(Scattering::Single),
+            "multiple" => Some(Scattering::Multiple),
+            _ => None,
+        }
+    }
+}
+
+/// What a plan must meet.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct Budget {
+    /// The largest relative RMSE over the volume's pixels against the truth.
+    pub error: f64,
+    pub scattering: Scattering,
+    /// The pilot's image size (longer side, pixels).
+    pub pilot: u32,
+}
+
+impl Budget {
+    pub fn new(error: f64, scattering: Scattering) -> Self {
+        Self {
+            error,
+            scattering,
+            pilot: DEFAULT_PILOT,
+        }
+    }
+
+    pub fn validate(&self) -> Result<()> {
+        if !(self.error > 0.0 && self.error <= 10.0) {
+            return Err(Error::param(
+                "error",
+                format!(
+                    "the error budget (relative RMSE) must be in (0, 10], got {}",
+                    self.error
+                ),
+            ));
+        }
+        if !(8..=1024).contains(&self.pilot) {
+            return Err(Error::param(
+                "pilot",
+                format!(
+                    "the pilot's image side must be in [8, 1024], got {}",
+                    self.pilot
+                ),
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// The estimator of the truth of `lighting` under `scattering`.
+pub fn truth_estimator(lighting: &Lighting, scattering: Scattering) -> Estimator {
+    let ambient = lighting
+        .lights
+        .iter()
+        .any(|l| l.kind() == LightKind::Ambient);
+    let direct = lighting
+        .lights
+        .iter()
+        .any(|l| l.kind() != LightKind::Ambient);
+    match (scattering, ambient, direct) {
+        (Scattering::Multiple, _, _) => Estimator::Multiple { bounces: BOUNCES },
+        (Scattering::Single, true, false) => Estimator::Ambient,
+        (Scattering::Single, false, true) => Estimator::Single,
+        (Scattering::Single, _, _) => Estimator::Multiple { bounces: 0 },
+    }
+}
+
+/// A configuration the planner can pick.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Choice {
+    /// A registered method at one of its chart settings (`[render]` keys, "" for defaults).
+    Method { method: Method, setting: String },
+    /// Occlux's Monte Carlo reference at `spp` samples per pixel.
+    MonteCarlo { estimator: Estimator, spp: u32 },
+}
+
+impl Choice {
+    /// Short text for tables: `ipsvi cache_size = 128`, `monte-carlo single 37 spp`.
+    pub fn label(&self) -> String {
+        match self {
+            Choice::Method { method, setting } if setting.is_empty() => method.spec().name.into(),
+            Choice::Method { method, setting } => format!("{} {setting}", method.spec().name),
+            Choice::MonteCarlo { estimator, spp } => {
+                format!("monte-carlo {} {spp} spp", estimator_label(*estimator))
+            }
+        }
+    }
+
+    /// What a scene file or command line says to get it.
+    pub fn how(&self) -> String {
+        match self {
+            Choice::Method { method, setting } => {
+                let mut text = format!("[render]\nmethod = \"{}\"\n", method.spec().name);
+                for line in setting.split(", ").filter(|l| !l.is_empty()) {
+                    text += line;
+                    text += "\n";
+                }
+                text
+            }
+            Choice::MonteCarlo { estimator, spp } => {
+                let bounces = match estimator {
+                    Estimator::Multiple { bounces } => format!(" --bounces {bounces}"),
+                    _ => String::new(),
+                };
+                format!(
+                    "occlux reference SCENE --estimator {} --spp {spp}{bounces}\n",
+                    estimator.name()
+                )
+            }
+        }
+    }
+
+    /// Renders the choice through the scene's camera.
+    pub fn render(&self, subject: &Subject, progress: &dyn Progress) -> Result<Rendered> {
+        let camera = &subject.scene.camera;
+        match self {
+            Choice::Method { method, .. } => {
+                let lighting = method.spec().lights_of(&subject.scene.lighting);
+                method.render(&crate::render::MethodInput {
+                    volume: subject.volume,
+                    classification: &subject.scene.classification,
+                    lut: subject.lut,
+                    camera,
+                    lighting: &lighting,
+                    compute: subject.compute,
+                    progress,
+                })
+            }
+            Choice::MonteCarlo { estimator, spp } => {
+                let (image, _) = monte_carlo(subject, camera, *estimator, *spp, 1)?;
+                Ok(Rendered {
+                    image: image.to_render(),
+                    grids: vec![],
+                })
+            }
+        }
+    }
+}
+
+/// `single`, `multiple (8 bounces)`.
+fn estimator_label(estimator: Estimator) -> String {
+    match estimator {
+        Estimator::Multiple { bounces } => format!("multiple ({bounces} bounces)"),
+        other => other.name().to_owned(),
+    }
+}
+
+/// A settled `auto` scene's plan: what renders it, and the record for the EXR header
+/// ([`Plan::record`]: `occlux/plan`, and its `method` as `occlux/method`).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Planned {
+    pub choice: Choice,
+    pub record: serde_json::Value,
+}
+
+/// One configuration's prediction at the full size.
+#[derive(Clone, Debug, Serialize)]
+pub struct Estimate {
+    #[serde(skip)]
+    pub choice: Choice,
+    pub label: String,
+    /// Predicted relative RMSE beyond noise against the truth, and the relative bias.
+    pub error: f64,
+    pub bias: f64,
+    /// Predicted wall time at the scene's image size, volume loaded; for a configuration
+    /// over budget, a lower bound (its pilot's time).
+    pub seconds: f64,
+    pub meets: bool,
+}
+
+/// The planner's answer.
+#[derive(Clone, Debug, Serialize)]
+pub struct Plan {
+    pub budget: Budget,
+    /// The truth's estimator, as `occlux reference --estimator` names it.
+    pub truth: String,
+    pub stats: SceneStats,
+    /// Every configuration: those within budget fastest first, then the rest by error.
+    pub estimates: Vec<Estimate>,
+    /// The index into `estimates` of the choice.
+    pub chosen: usize,
+    /// What the pilot cost, and the noise of its truth.
+    pub pilot_seconds: f64,
+    pub pilot_noise: f64,
+}
+
+impl Plan {
+    pub fn choice(&self) -> &Choice {
+        &self.estimates[self.chosen].choice
+    }
+
+    /// What the choice is, for an EXR header: the method as a scene's `[render]` (or the
+    /// Monte Carlo estimator and its samples), the budget and the predictions.
+    pub fn record(&self) -> serde_json::Value {
+        let chosen = &self.estimates[self.chosen];
+        let method = match &chosen.choice {
+            Choice::Method { method, .. } => method.to_json(),
+            Choice::MonteCarlo { estimator, spp } => serde_json::json!({
+                "method": "monte-carlo",
+                "estimator": estimator.name(),
+                "bounces": match estimator {
+                    Estimator::Multiple { bounces } => Some(*bounces),
+                    _ => None,
+                },
+                "spp": spp,
+            }),
+        };
+        serde_json::json!({
+            "method": method,
+            "chosen": chosen.label,
+            "budget": crate::json::tree(&self.budget),
+            "truth": self.truth,
+            "predicted_error": chosen.error,
+            "predicted_seconds": chosen.seconds,
+        })
+    }
+
+    /// What it chose and why, for people.
+    pub fn explain(&self) -> String {
+        let chosen = &self.estimates[self.chosen];
+        let mut text = format!(
+            "scene: {}\ntruth: {} scattering (the `{}` estimator); budget: relative RMSE {}\n\
+             pilot: {:.2} s at {} px on the longer side (its truth's noise {:.3})\n\n",
+            self.stats.describe(),
+            self.budget.scattering.name(),
+            self.truth,
+            self.budget.error,
+            self.pilot_seconds,
+            self.budget.pilot,
+            self.pilot_noise,
+        );
+        text += &format!(
+            "{:<44} {:>10} {:>10} {:>9}\n",
+            "configuration", "pred. time", "pred. err", "bias"
+        );
+        for (i, e) in self.estimates.iter().enumerate() {
+            let (mark, at_least) = match (i == self.chosen, e.meets) {
+                (true, _) => ("  <- chosen", " "),
+                (false, true) => ("", " "),
+                (false, false) => ("  (over budget)", ">"),
+            };
+            text += &format!(
+                "{:<44} {at_least}{:>7.3} s {:>10.3} {:>+8.1}%{mark}\n",
+                e.label,
+                e.seconds,
+                e.error,
+                100.0 * e.bias
+            );
+        }
+        let cheaper: Vec<&str> = self
+            .estimates
+            .iter()
+            .filter(|e| !e.meets && e.seconds < chosen.seconds)
+            .map(|e| e.label.as_str())
+            .collect();
+        let within = if chosen.meets {
+            "the fastest predicted to stay within"
+        } else {
+            "nothing is predicted to stay within"
+        };
+        text += &format!(
+            "\nchose {}: {within} {} ({:.3} predicted, in {:.3} s)",
+            chosen.label, self.budget.error, chosen.error, chosen.seconds
+        );
+        if !cheaper.is_empty() {
+            text += &format!(
+                "; too far from the truth though faster at the pilot: {}",
+                cheaper.join("; ")
+            );
+        }
+        let mut grids = crate::pipeline::EXPORT_GRIDS.to_vec();
+        if let Choice::Method { method, .. } = &chosen.choice {
+            grids.extend(method.grids());
+        }
+        let precision = if self.budget.error >= HALF_FLOAT_BUDGET {
+            "half floats where every value fits one (the budget allows their 2^-11 rounding)"
+        } else {
+            "float32 (the budget is below 0.01)"
+        };
+        text += &format!(
+            "\nan export writes the grids {} as {precision}\n",
+            grids.join(", ")
+        );
+        text
+    }
+}
+
+/// Plans the render of a loaded scene (its camera settled) within `budget`.
+pub fn plan(subject: &Subject, budget: &Budget, progress: &dyn Fn(&str)) -> Result<Plan> {
+    budget.validate()?;
+    let started = Instant::now();
+    let scene = subject.scene;
+    let full = pixels(&scene.camera);
+    let stats = SceneStats::measure(subject.volume, subject.lut, &scene.camera, &scene.lighting);
+    let estimator = truth_estimator(&scene.lighting, budget.scattering);
+    let pilot = resized(&scene.camera, budget.pilot);
+    let tiny = resized(&scene.camera, (budget.pilot / 4).max(4));
+    progress("pilot: the truth");
+    let (first, first_seconds) = monte_carlo(subject, &pilot, estimator, FIRST_PILOT_SPP, 1)?;
+    let first_truth = Truth::new(subject, pilot, &first)?;
+    // Enough samples that the truth's noise is a third of the budget.
+    let wanted = (3.0 * first_truth.noise_per_sample / budget.error)
+        .powi(2)
+        .ceil();
+    let truth = if wanted > FIRST_PILOT_SPP as f64 {
+        let spp = (wanted as u32).min(MOST_PILOT_SPP);
+        let (image, _) = monte_carlo(subject, &pilot, estimator, spp, 3)?;
+        Truth::new(subject, pilot, &image)?
+    } else {
+        first_truth
+    };
+    let (_, tiny_seconds) = monte_carlo(subject, &tiny, estimator, 2, 5)?;
+    let law = CostLaw::through(
+        (pixels(&tiny) * 2.0, tiny_seconds),
+        (pixels(&pilot) * FIRST_PILOT_SPP as f64, first_seconds),
+    )?;
+    let mut estimates = vec![monte_carlo_estimate(
+        estimator,
+        truth.noise_per_sample,
+        0.0,
+        budget.error,
+        &law,
+        full,
+    )];
+    if let Estimator::Multiple { bounces } = estimator {
+        if bounces > 0 {
+            progress("pilot: single scattering");
+            let lower = truth_estimator(&scene.lighting, Scattering::Single);
+            estimates.push(lower_model(subject, &truth, lower, budget, full, &tiny)?);
+        }
+    }
+    for spec in METHODS {
+        if spec.lights_of(&scene.lighting).lights.is_empty() {
+            continue;
+        }
+        for setting in spec.chart {
+            let choice = Choice::Method {
+                method: spec.at_setting(setting)?,
+                setting: setting.replace('\n', ", "),
+            };
+            progress(&format!("pilot: {}", choice.label()));
+            estimates.push(method_estimate(
+                subject, choice, &truth, budget, full, &tiny,
+            )?);
+        }
+    }
+    estimates.sort_by(|a, b| {
+        b.meets.cmp(&a.meets).then(if a.meets {
+            a.seconds.total_cmp(&b.seconds)
+        } else {
+            a.error.total_cmp(&b.error)
+        })
+    });
+    // The truth's own estimator meets any budget given samples enough; if even it cannot
+    // (more than MAX_SPP), the closest comes first.
+    let chosen = 0;
+    Ok(Plan {
+        budget: *budget,
+        truth: estimator.name().to_owned(),
+        stats,
+        estimates,
+        chosen,
+        pilot_seconds: started.elapsed().as_secs_f64(),
+        pilot_noise: truth.noise,
+    })
+}
+
+/// Monte Carlo with `estimator`, whose noise per sample and bias against the truth are known:
+/// the fewest samples that meet the budget, if any do.
+fn monte_carlo_estimate(
+    estimator: Estimator,
+    noise_per_sample: f64,
+    bias_rmse: f64,
+    budget: f64,
+    law: &CostLaw,
+    full: f64,
+) -> Estimate {
+    let room = (MONTE_CARLO_MARGIN * budget).powi(2) - bias_rmse * bias_rmse;
+    let (spp, meets) = if room > 0.0 {
+        let spp = (noise_per_sample * noise_per_sample / room).ceil();
+        (spp.clamp(2.0, MAX_SPP as f64) as u32, spp <= MAX_SPP as f64)
+    } else {
+        (2, false)
+    };
+    let choice = Choice::MonteCarlo { estimator, spp };
+    Estimate {
+        label: choice.label(),
+        choice,
+        error: (bias_rmse * bias_rmse + noise_per_sample * noise_per_sample / spp as f64).sqrt(),
+        bias: 0.0,
+        seconds: law.seconds(full * spp as f64),
+        meets,
+    }
+}
+
+/// Single scattering's Monte Carlo under a multiple-scattering truth: its bias from the pilot.
+fn lower_model(
+    subject: &Subject,
+    truth: &Truth,
+    lower: Estimator,
+    budget: &Budget,
+    full: f64,
+    tiny: &crate::camera::Camera,
+) -> Result<Estimate> {
+    // As many samples as the truth, so its noise is as small.
+    let spp = truth.spp;
+    let (image, seconds) = monte_carlo(subject, &truth.camera, lower, spp, 7)?;
+    let own = Truth::new(subject, truth.camera, &image)?;
+    let (bias_rmse, bias) = truth.error(&image.mean, own.noise)?;
+    let (_, tiny_seconds) = monte_carlo(subject, tiny, lower, 2, 9)?;
+    let law = CostLaw::through(
+        (pixels(tiny) * 2.0, tiny_seconds),
+        (pixels(&truth.camera) * spp as f64, seconds),
+    )?;
+    let mut estimate = monte_carlo_estimate(
+        lower,
+        own.noise_per_sample,
+        bias_rmse,
+        budget.error,
+        &law,
+        full,
+    );
+    estimate.bias = bias;
+    Ok(estimate)
+}
+
+/// A method setting's error from the pilot. Its time: for a setting that meets the budget,
+/// a cost law through the fastest of two renders at each of two sizes (the fastest, since
+/// other work on the machine only ever adds time); for one that does not, the pilot's time,
+/// a lower bound (no need to know more of what cannot be chosen).
+fn method_estimate(
+    subject: &Subject,
+    choice: Choice,
+    truth: &Truth,
+    budget: &Budget,
+    full: f64,
+    tiny: &crate::camera::Camera,
+) -> Result<Estimate> {
+    let render = |camera| match &choice {
+        Choice::Method { method, .. } => render_method(subject, method, camera),
+        Choice::MonteCarlo { .. } => Err(Error::param("plan", "a method was expected")),
+    };
+    let fastest = |camera| -> Result<f64> {
+        let (_, a) = render(camera)?;
+        let (_, b) = render(camera)?;
+        Ok(a.min(b))
+    };
+    if matches!(subject.compute, Compute::Gpu(_)) {
+        // Shader compilation and first uploads are not the method's time.
+        render(tiny)?;
+    }
+    let (image, pilot_seconds) = render(&truth.camera)?;
+    let (error, bias) = truth.error(&image.rgba, 0.0)?;
+    let meets = error <= METHOD_MARGIN * budget.error;
+    let seconds = if meets {
+        let pilot_seconds = pilot_seconds.min(render(&truth.camera)?.1);
+        CostLaw::through(
+            (pixels(tiny), fastest(tiny)?),
+            (pixels(&truth.camera), pilot_seconds),
+        )?
+        .seconds(full)
+    } else {
+        pilot_seconds
+    };
+    Ok(Estimate {
+        label: choice.label(),
+        choice,
+        error,
+        bias,
+        seconds,
+        meets,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::lights::Light;
+    use glam::Vec3;
+
+    #[test]
+    fn the_truth_models_the_scene_s_lights() {
+        let ambient = Light::Ambient {
+            radiance: Vec3::ONE,
+        };
+        let sun = Light::Directional {
+            to_light: Vec3::Z,
+            irradiance: Vec3::ONE,
+        };
+        let lit = |lights: Vec<Light>| Lighting {
+            lights,
+            background: Vec3::ZERO,
+        };
+        let single = |lights| truth_estimator(&lit(lights), Scattering::Single);
+        assert_eq!(single(vec![ambient]), Estimator::Ambient);
+        assert_eq!(single(vec![sun]), Estimator::Single);
+        assert_eq!(
+            single(vec![sun, ambient]),
+            Estimator::Multiple { bounces: 0 }
+        );
+        assert_eq!(
+            truth_estimator(&lit(vec![ambient]), Scattering::Multiple),
+            Estimator::Multiple { bounces: BOUNCES }
+        );
+    }
+
+    #[test]
+    fn monte_carlo_takes_the_fewest_samples_that_meet_the_budget() {
+        let law = CostLaw {
+            fixed: 0.1,
+            per_unit: 1e-6,
+        };
+        let e = monte_carlo_estimate(Estimator::Single, 1.0, 0.0, 0.1, &law, 1e4);
+        let Choice::MonteCarlo { spp, .. } = e.choice else {
+            panic!("{e:?}")
+        };
+        // (1 / (0.95 * 0.1))^2 = 110.8
+        assert_eq!(spp, 111);
+        assert!(e.meets && e.error <= 0.095 && (e.seconds - (0.1 + 1e-2 * 111.0)).abs() < 1e-9);
+        // A bias beyond the budget cannot be averaged away.
+        let biased = monte_carlo_estimate(Estimator::Single, 1.0, 0.2, 0.1, &law, 1e4);
+        assert!(!biased.meets);
+    }
+}
