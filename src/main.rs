@@ -6,7 +6,7 @@ use occlux::ao::reference::AoVariant;
 use occlux::ao::sweep::geometric::GeometricParams;
 use occlux::ao::AoVolumeParams;
 use occlux::eval::{
-    bench, chart, dos_accuracy, ipsvi_accuracy, plan_check, sweep_accuracy, sweep_bench,
+    bench, chart, dos_accuracy, gallery, ipsvi_accuracy, plan_check, sweep_accuracy, sweep_bench,
     vao_accuracy, vao_bench,
 };
 use occlux::export::exr::Precision;
@@ -165,6 +165,10 @@ enum Command {
     /// choice stays within the budget at the full size, and its time over the fastest
     /// configuration that does; Markdown table and JSON.
     PlanCheck(plan_check::PlanCheckArgs),
+    /// One volume, every method at each of its chart settings side by side with Monte Carlo
+    /// and the path-traced truth, each with its time and error under it: OUT/gallery.png and
+    /// OUT/gallery.json.
+    Gallery(gallery::GalleryArgs),
     /// Occlusion sweeping's geometric mode at the paper's sizes on the box-and-sphere phantom
     /// (CPU): the signed distance alone, with the combined occlusion, with the eight octants;
     /// medians, the occlusion's cost over the signed distance's; table and JSON.
@@ -435,6 +439,7 @@ fn run(cli: Cli) -> occlux::Result<()> {
         Command::Chart(args) => chart::run(&args, quiet),
         Command::Plan(args) => plan::command::run(&args, quiet),
         Command::PlanCheck(args) => plan_check::run(&args, quiet),
+        Command::Gallery(args) => gallery::run(&args, quiet),
         Command::BenchSweep(args) => sweep_bench::run(&args, quiet),
         Command::Reference {
             scene,

@@ -4,6 +4,7 @@ pub mod chart;
 pub mod cycles;
 pub mod dos_accuracy;
 pub mod error_map;
+pub mod gallery;
 pub mod ipsvi_accuracy;
 pub mod plan_check;
 pub mod sweep_accuracy;

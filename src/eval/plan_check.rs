@@ -229,7 +229,7 @@ fn check_scene(
             scene: name.clone(),
             budget: error,
             chosen: chosen.label.clone(),
-            predicted_error: chosen.error,
+            predicted_error: chosen.error.unwrap_or(f64::NAN),
             predicted_seconds: chosen.seconds,
             actual_error,
             actual_seconds,

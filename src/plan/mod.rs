@@ -54,7 +54,7 @@ pub const HALF_FLOAT_BUDGET: f64 = 0.01;
 /// Samples of the first pilot truth, from which the noise per sample and the needed samples
 /// follow; and the most the pilot's truth takes.
 const FIRST_PILOT_SPP: u32 = 64;
-const MOST_PILOT_SPP: u32 = 16384;
+const MOST_PILOT_SPP: u32 = 8192;
 
 /// The light transport the truth models.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, clap::ValueEnum)]
@@ -237,11 +237,13 @@ pub struct Estimate {
     #[serde(skip)]
     pub choice: Choice,
     pub label: String,
-    /// Predicted relative RMSE beyond noise against the truth, and the relative bias.
-    pub error: f64,
-    pub bias: f64,
+    /// Predicted relative RMSE beyond noise against the truth, and the relative bias; None
+    /// when not measured: the configuration was slower at a quarter of the pilot's size than
+    /// the best within budget at the full size, so it could not win.
+    pub error: Option<f64>,
+    pub bias: Option<f64>,
     /// Predicted wall time at the scene's image size, volume loaded; for a configuration
-    /// over budget, a lower bound (its pilot's time).
+    /// over budget or not measured, a lower bound (a pilot render's time).
     pub seconds: f64,
     pub meets: bool,
 }
@@ -253,7 +255,8 @@ pub struct Plan {
     /// The truth's estimator, as `occlux reference --estimator` names it.
     pub truth: String,
     pub stats: SceneStats,
-    /// Every configuration: those within budget fastest first, then the rest by error.
+    /// Every configuration: those within budget fastest first, then the rest by error, then
+    /// those not measured.
     pub estimates: Vec<Estimate>,
     /// The index into `estimates` of the choice.
     pub chosen: usize,
@@ -312,23 +315,28 @@ impl Plan {
             "configuration", "pred. time", "pred. err", "bias"
         );
         for (i, e) in self.estimates.iter().enumerate() {
-            let (mark, at_least) = match (i == self.chosen, e.meets) {
-                (true, _) => ("  <- chosen", " "),
-                (false, true) => ("", " "),
-                (false, false) => ("  (over budget)", ">"),
+            let (mark, at_least) = match (i == self.chosen, e.meets, e.error) {
+                (true, _, _) => ("  <- chosen", " "),
+                (false, true, _) => ("", " "),
+                (false, false, Some(_)) => ("  (over budget)", ">"),
+                (false, false, None) => ("  (slower at a quarter size: not measured)", ">"),
+            };
+            let number = |v: Option<f64>, scale: f64| {
+                v.map_or("-".to_owned(), |v| format!("{:.3}", v * scale))
             };
             text += &format!(
-                "{:<44} {at_least}{:>7.3} s {:>10.3} {:>+8.1}%{mark}\n",
+                "{:<44} {at_least}{:>7.3} s {:>10} {:>9}{mark}\n",
                 e.label,
                 e.seconds,
-                e.error,
-                100.0 * e.bias
+                number(e.error, 1.0),
+                e.bias
+                    .map_or("-".to_owned(), |b| format!("{:+.1}%", 100.0 * b)),
             );
         }
         let cheaper: Vec<&str> = self
             .estimates
             .iter()
-            .filter(|e| !e.meets && e.seconds < chosen.seconds)
+            .filter(|e| !e.meets && e.error.is_some() && e.seconds < chosen.seconds)
             .map(|e| e.label.as_str())
             .collect();
         let within = if chosen.meets {
@@ -338,7 +346,10 @@ impl Plan {
         };
         text += &format!(
             "\nchose {}: {within} {} ({:.3} predicted, in {:.3} s)",
-            chosen.label, self.budget.error, chosen.error, chosen.seconds
+            chosen.label,
+            self.budget.error,
+            chosen.error.unwrap_or(f64::NAN),
+            chosen.seconds
         );
         if !cheaper.is_empty() {
             text += &format!(
@@ -376,8 +387,9 @@ pub fn plan(subject: &Subject, budget: &Budget, progress: &dyn Fn(&str)) -> Resu
     progress("pilot: the truth");
     let (first, first_seconds) = monte_carlo(subject, &pilot, estimator, FIRST_PILOT_SPP, 1)?;
     let first_truth = Truth::new(subject, pilot, &first)?;
-    // Enough samples that the truth's noise is a third of the budget.
-    let wanted = (3.0 * first_truth.noise_per_sample / budget.error)
+    // Enough samples that the truth's noise is half the budget: errors are taken beyond it
+    // (in quadrature), so it only adds scatter to them, averaged over the pilot's pixels.
+    let wanted = (2.0 * first_truth.noise_per_sample / budget.error)
         .powi(2)
         .ceil();
     let truth = if wanted > FIRST_PILOT_SPP as f64 {
@@ -417,17 +429,26 @@ pub fn plan(subject: &Subject, budget: &Budget, progress: &dyn Fn(&str)) -> Resu
                 setting: setting.replace('\n', ", "),
             };
             progress(&format!("pilot: {}", choice.label()));
+            let best = estimates
+                .iter()
+                .filter(|e| e.meets)
+                .map(|e| e.seconds)
+                .fold(f64::INFINITY, f64::min);
             estimates.push(method_estimate(
-                subject, choice, &truth, budget, full, &tiny,
+                subject, choice, &truth, budget, full, &tiny, best,
             )?);
         }
     }
+    let unmeasured = |e: &Estimate| e.error.is_none();
     estimates.sort_by(|a, b| {
-        b.meets.cmp(&a.meets).then(if a.meets {
-            a.seconds.total_cmp(&b.seconds)
-        } else {
-            a.error.total_cmp(&b.error)
-        })
+        b.meets
+            .cmp(&a.meets)
+            .then(unmeasured(a).cmp(&unmeasured(b)))
+            .then(if a.meets {
+                a.seconds.total_cmp(&b.seconds)
+            } else {
+                a.error.unwrap_or(0.0).total_cmp(&b.error.unwrap_or(0.0))
+            })
     });
     // The truth's own estimator meets any budget given samples enough; if even it cannot
     // (more than MAX_SPP), the closest comes first.
@@ -464,8 +485,10 @@ fn monte_carlo_estimate(
     Estimate {
         label: choice.label(),
         choice,
-        error: (bias_rmse * bias_rmse + noise_per_sample * noise_per_sample / spp as f64).sqrt(),
-        bias: 0.0,
+        error: Some(
+            (bias_rmse * bias_rmse + noise_per_sample * noise_per_sample / spp as f64).sqrt(),
+        ),
+        bias: Some(0.0),
         seconds: law.seconds(full * spp as f64),
         meets,
     }
@@ -498,14 +521,17 @@ fn lower_model(
         &law,
         full,
     );
-    estimate.bias = bias;
+    estimate.bias = Some(bias);
     Ok(estimate)
 }
 
 /// A method setting's error from the pilot. Its time: for a setting that meets the budget,
 /// a cost law through the fastest of two renders at each of two sizes (the fastest, since
 /// other work on the machine only ever adds time); for one that does not, the pilot's time,
-/// a lower bound (no need to know more of what cannot be chosen).
+/// a lower bound (no need to know more of what cannot be chosen). A setting slower at the
+/// small size than `best`, the fastest full-size time within budget so far, cannot win and
+/// is not measured further (branch and bound: what makes the pilot cheap where Monte Carlo
+/// or a fast method already meets the budget).
 fn method_estimate(
     subject: &Subject,
     choice: Choice,
@@ -513,41 +539,45 @@ fn method_estimate(
     budget: &Budget,
     full: f64,
     tiny: &crate::camera::Camera,
+    best: f64,
 ) -> Result<Estimate> {
     let render = |camera| match &choice {
         Choice::Method { method, .. } => render_method(subject, method, camera),
         Choice::MonteCarlo { .. } => Err(Error::param("plan", "a method was expected")),
     };
-    let fastest = |camera| -> Result<f64> {
-        let (_, a) = render(camera)?;
-        let (_, b) = render(camera)?;
-        Ok(a.min(b))
-    };
     if matches!(subject.compute, Compute::Gpu(_)) {
         // Shader compilation and first uploads are not the method's time.
         render(tiny)?;
     }
+    let (_, tiny_seconds) = render(tiny)?;
+    let mut estimate = Estimate {
+        label: choice.label(),
+        choice: choice.clone(),
+        error: None,
+        bias: None,
+        seconds: tiny_seconds,
+        meets: false,
+    };
+    if tiny_seconds >= best {
+        return Ok(estimate);
+    }
     let (image, pilot_seconds) = render(&truth.camera)?;
     let (error, bias) = truth.error(&image.rgba, 0.0)?;
-    let meets = error <= METHOD_MARGIN * budget.error;
-    let seconds = if meets {
+    estimate.error = Some(error);
+    estimate.bias = Some(bias);
+    estimate.meets = error <= METHOD_MARGIN * budget.error;
+    estimate.seconds = if estimate.meets {
         let pilot_seconds = pilot_seconds.min(render(&truth.camera)?.1);
+        let tiny_seconds = tiny_seconds.min(render(tiny)?.1);
         CostLaw::through(
-            (pixels(tiny), fastest(tiny)?),
+            (pixels(tiny), tiny_seconds),
             (pixels(&truth.camera), pilot_seconds),
         )?
         .seconds(full)
     } else {
         pilot_seconds
     };
-    Ok(Estimate {
-        label: choice.label(),
-        choice,
-        error,
-        bias,
-        seconds,
-        meets,
-    })
+    Ok(estimate)
 }
 
 #[cfg(test)]
@@ -594,7 +624,9 @@ mod tests {
         };
         // (1 / (0.95 * 0.1))^2 = 110.8
         assert_eq!(spp, 111);
-        assert!(e.meets && e.error <= 0.095 && (e.seconds - (0.1 + 1e-2 * 111.0)).abs() < 1e-9);
+        assert!(
+            e.meets && e.error.unwrap() <= 0.095 && (e.seconds - (0.1 + 1e-2 * 111.0)).abs() < 1e-9
+        );
         // A bias beyond the budget cannot be averaged away.
         let biased = monte_carlo_estimate(Estimator::Single, 1.0, 0.2, 0.1, &law, 1e4);
         assert!(!biased.meets);
