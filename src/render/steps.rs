@@ -74,8 +74,10 @@ impl ViewSteps {
     }
 
     /// The march the occupancy grid skips along (a ray in index coordinates): the lattice's
-    /// steps, whose midpoints are the samples' (all but the clipped first and last, which lie
-    /// between their lattice step's start and midpoint, so never beyond a skipped cell).
+    /// steps, whose midpoints are the samples but for the clipped first step (where the march
+    /// starts, never skipped over) and last (its sample lies before its lattice midpoint, so
+    /// never beyond the cell a skip leaves): skipping passes over exactly the samples in
+    /// empty cells.
     #[inline]
     pub fn march(&self, index_origin: Vec3, index_dir: Vec3) -> March {
         March {
