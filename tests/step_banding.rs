@@ -58,7 +58,6 @@ fn render(volume: &Volume, shading: Shading, step: f32) -> RenderImage {
         shading,
         step: Some(step),
         ert_threshold: 0.0,
-        ..RaycastParams::default()
     };
     let input = RaycastInput {
         volume,
