@@ -1,5 +1,6 @@
 // Helpers shared by the kernels; a kernel pulls them in with the line //#include "common.wgsl".
-// They mirror src/volume/mod.rs so that GPU and CPU twins agree.
+// They mirror src/volume/mod.rs (sampling) and src/render/steps.rs (a view ray's steps) so that
+// GPU and CPU twins agree.
 
 // Trilinear sample at continuous index coordinates c (voxel centres at integers), clamped to the
 // edge voxels: Volume::sample_index, operation for operation. The eight voxels are loaded and
@@ -49,4 +50,43 @@ fn volume_gradient(
     let dz = sample_volume(tex, c + vec3<f32>(0.0, 0.0, 1.0), dims)
         - sample_volume(tex, c - vec3<f32>(0.0, 0.0, 1.0), dims);
     return vec3<f32>(dx, dy, dz) / (2.0 * spacing);
+}
+
+// PCG's state step and output permutation of one u32 (steps::pcg); u32 arithmetic wraps.
+fn pcg_hash(v: u32) -> u32 {
+    let state = v * 747796405u + 2891336453u;
+    let word = ((state >> ((state >> 28u) + 4u)) ^ state) * 277803737u;
+    return (word >> 22u) ^ word;
+}
+
+// The fraction of a step, in [0, 1), by which the view ray through `pixel` shifts its steps,
+// bit for bit steps::step_offset (see there why): 24 bits of a hash times 2^-24, exact in f32.
+fn step_offset(pixel: vec2<u32>) -> f32 {
+    return f32(pcg_hash(pixel.x + pcg_hash(pixel.y)) >> 8u) * 5.9604644775390625e-8;
+}
+
+// A view ray's steps between `near` and `far` (steps::ViewSteps): the lattice of steps of
+// `step` starting `offset * step` before `near`, clipped to [near, far].
+struct ViewSteps {
+    near: f32,
+    far: f32,
+    start: f32,
+    step: f32,
+    count: u32,
+};
+
+// ViewSteps::new for the box span (near, far).
+fn view_steps(span: vec2<f32>, step: f32, offset: f32) -> ViewSteps {
+    let start = span.x - offset * step;
+    return ViewSteps(span.x, span.y, start, step, u32(ceil((span.y - start) / step)));
+}
+
+// ViewSteps::segment: step k's start and length; sampled at its midpoint.
+fn step_segment(s: ViewSteps, k: u32) -> vec2<f32> {
+    let a = max(s.start + f32(k) * s.step, s.near);
+    var b = s.far;
+    if (k + 1u < s.count) {
+        b = min(s.start + f32(k + 1u) * s.step, s.far);
+    }
+    return vec2<f32>(a, max(b - a, 0.0));
 }

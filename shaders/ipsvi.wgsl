@@ -513,25 +513,25 @@ fn trace(xy: vec2<u32>) -> PixelOut {
     if (!(span.y > span.x)) {
         return out;
     }
-    let step = params.step;
-    let steps = u32(ceil((span.y - span.x) / step));
+    let steps = view_steps(span, params.step, step_offset(xy));
     let index_origin = index_of(view, ray.origin);
     let index_dir = ray.dir / view.spacing;
     var held: array<Held, 4>;
     var k = 0u;
     loop {
-        if (k >= steps) {
+        if (k >= steps.count) {
             break;
         }
-        let ta = span.x + f32(k) * step;
-        let dt = min(span.y - ta, step);
+        let segment = step_segment(steps, k);
+        let ta = segment.x;
+        let dt = segment.y;
         let x = ray.origin + (ta + 0.5 * dt) * ray.dir;
         let cell = occupancy_cell(index_of(view, x), params.cells, params.cell_voxels);
         if (!occupied(cell)) {
             // Resume at the first step whose midpoint lies at or beyond the cell's exit.
             let leave = occupancy_exit(cell, index_origin, index_dir, params.cells, params.cell_voxels);
-            let next = ceil((leave - span.x) / step - 0.5);
-            if (!(next < f32(steps))) {
+            let next = ceil((leave - steps.start) / steps.step - 0.5);
+            if (!(next < f32(steps.count))) {
                 break;
             }
             k = max(u32(next), k + 1u);

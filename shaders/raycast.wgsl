@@ -169,12 +169,11 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
         out_depth[out_index] = BACKGROUND_DEPTH;
         return;
     }
-    let step = params.step;
+    let steps = view_steps(span, params.step, step_offset(vec2<u32>(id.x, row)));
     let ert = params.ert_threshold;
     // A 2D table needs the gradient to classify; shading needs it only where there is matter.
     let table_2d = params.lut.gradient_max > 0.0;
     let shaded = params.shading == SHADING_GRADIENT || params.shading == SHADING_AO_GRADIENT;
-    let steps = u32(ceil((span.y - span.x) / step));
     var radiance = vec3<f32>(0.0);
     var transmittance = 1.0;
     var depth = BACKGROUND_DEPTH;
@@ -182,18 +181,19 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
     let index_dir = dir / params.view.spacing;
     var k = 0u;
     loop {
-        if (k >= steps) {
+        if (k >= steps.count) {
             break;
         }
-        let ta = span.x + f32(k) * step;
-        let dt = min(span.y - ta, step);
+        let segment = step_segment(steps, k);
+        let ta = segment.x;
+        let dt = segment.y;
         let p = origin + (ta + 0.5 * dt) * dir;
         let cell = occupancy_cell(index_of(params.view, p), params.cells, params.cell_voxels);
         if (!occupied(cell)) {
             // Resume at the first step whose midpoint lies at or beyond the cell's exit.
             let leave = occupancy_exit(cell, index_origin, index_dir, params.cells, params.cell_voxels);
-            let next = ceil((leave - span.x) / step - 0.5);
-            if (!(next < f32(steps))) {
+            let next = ceil((leave - steps.start) / steps.step - 0.5);
+            if (!(next < f32(steps.count))) {
                 break;
             }
             k = max(u32(next), k + 1u);

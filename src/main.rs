@@ -22,8 +22,9 @@ use occlux::volume::{self, LoadOptions, RawSpec, ScalarType};
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
-/// The built-in demo scene: the CT-like phantom, soft-tissue preset, gradient shading.
-const DEMO_SCENE: &str = include_str!("../examples/demo.toml");
+/// The built-in demo scene: the CT-like phantom, bone and soft tissue, lit by a sun with IPSVI
+/// (shadows and multiple scattering).
+const DEMO_SCENE: &str = include_str!("../examples/demo-lit.toml");
 
 #[derive(Parser)]
 #[command(

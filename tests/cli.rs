@@ -78,9 +78,10 @@ fn demo_writes_the_render_the_library_computes() {
         "{stdout}"
     );
 
-    let scene = Scene::parse(include_str!("../examples/demo.toml"), Path::new(".")).unwrap();
-    let volume = scene.load_volume().unwrap();
-    let img = pipeline::render(&scene, &volume, &Compute::Cpu, &NoProgress)
+    let scene = Scene::parse(include_str!("../examples/demo-lit.toml"), Path::new(".")).unwrap();
+    // Settled as the CLI settles it: the camera framed on the visible content.
+    let loaded = scene.load().unwrap();
+    let img = pipeline::render(&loaded.scene, &loaded.volume, &Compute::Cpu, &NoProgress)
         .unwrap()
         .image;
 

@@ -18,6 +18,7 @@ use occlux::progress::NoProgress;
 use occlux::render::half_angle::{self, HalfAngleInput, HalfAngleParams};
 use occlux::render::ipsvi::{cpu, diffusion, IpsviInput, IpsviParams, Scattering};
 use occlux::render::reference::{self, Estimator, ReferenceInput, ReferenceParams};
+use occlux::render::steps::step_offset;
 use occlux::render::RenderImage;
 use occlux::volume::{phantom, Volume};
 use std::f32::consts::PI;
@@ -210,17 +211,28 @@ fn a_sun_along_an_orthographic_view_is_exact_from_behind_and_in_front() {
         inside(x, z).then(|| k * SIGMA * 2.0 * (-2.0 * SIGMA).exp())
     });
     // The shadow layer weights each step's light by the step's contribution, so it has the
-    // same sums without the phase and albedo: with q = exp(-sigma h) for the view's N steps of
-    // h (midpoints at (i + 1/2) h), P = sum (1 - q) q^i T_i, where T_i = q^(i + 1/2) from
-    // behind the viewer and q^(N - i - 1/2) from behind the cube; A = 1 - q^N.
+    // same sums without the phase and albedo: over the view's steps [a_i, a_i + d_i] through
+    // the chord W (steps of h shifted back by the pixel's offset u: the first (1 - u) h long,
+    // the last ending at W), P = sum e^(-sigma a_i) (1 - e^(-sigma d_i)) T_i, where T_i is the
+    // light's transmittance at the midpoint m_i, e^(-sigma m_i) from behind the viewer and
+    // e^(-sigma (W - m_i)) from behind the cube; A = 1 - e^(-sigma W) whatever u.
     let h = 1.0f64 / 32.0;
-    let n = (2.0 / h).round() as i32;
-    let q = (-(SIGMA as f64) * h).exp();
-    let from_front = (1.0 - q) * q.sqrt() * (1.0 - q.powi(2 * n)) / (1.0 - q * q);
-    let from_behind = (1.0 - q) * n as f64 * q.powf(n as f64 - 0.5);
-    for (what, img, want) in [
-        ("sun behind the viewer", &front, from_front),
-        ("sun behind the cube", &back, from_behind),
+    let w = 2.0f64;
+    let sigma = SIGMA as f64;
+    let shadow_sum = |u: f64, from_front: bool| {
+        let (mut sum, mut a, mut k) = (0.0, 0.0, 0);
+        while a < w {
+            let b = ((k as f64 + 1.0 - u) * h).min(w);
+            let (d, m) = (b - a, a + 0.5 * (b - a));
+            let light = if from_front { m } else { w - m };
+            sum += (-sigma * a).exp() * (1.0 - (-sigma * d).exp()) * (-sigma * light).exp();
+            (a, k) = (b, k + 1);
+        }
+        sum
+    };
+    for (what, img, from_front) in [
+        ("sun behind the viewer", &front, true),
+        ("sun behind the cube", &back, false),
     ] {
         let (shadow, coverage) = premultiplied(img, "shadow");
         let mut worst = 0.0f64;
@@ -234,14 +246,19 @@ fn a_sun_along_an_orthographic_view_is_exact_from_behind_and_in_front() {
                 continue;
             }
             assert!(
-                ((*a as f64) - (1.0 - q.powi(n))).abs() < 1e-5,
+                ((*a as f64) - (1.0 - (-sigma * w).exp())).abs() < 1e-5,
                 "{what}: A {a}"
             );
+            let u = step_offset(p as u32 % 12, p as u32 / 12) as f64;
+            let want = shadow_sum(u, from_front);
             let error = (*s as f64 - want).abs() / want;
             worst = worst.max(error);
             assert!(error < 1e-5, "{what} at ({x}, {z}): P {s} vs {want}");
         }
-        println!("{what}: shadow layer P = {want:.5}, worst relative error {worst:.2e}");
+        println!(
+            "{what}: shadow layer P = {:.5} (u = 0), worst relative error {worst:.2e}",
+            shadow_sum(0.0, from_front)
+        );
     }
 }
 

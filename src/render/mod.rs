@@ -7,6 +7,7 @@ pub mod ipsvi;
 pub mod occupancy;
 pub mod raycast;
 pub mod reference;
+pub mod steps;
 
 use crate::camera::Camera;
 use crate::classify::{Classification, Lut};

@@ -116,7 +116,8 @@ pub fn cell_value_ranges(volume: &Volume, side: usize) -> ([usize; 3], Vec<[f32;
 }
 
 /// A march along a ray in index coordinates (`index_origin + t index_dir`): `steps` steps of
-/// `step` from `start`, each sampled at its midpoint.
+/// `step` from `start`, each sampled at its midpoint (a view ray's first and last step are
+/// clipped to the box: `steps::ViewSteps`).
 #[derive(Clone, Copy, Debug)]
 pub struct March {
     pub index_origin: Vec3,

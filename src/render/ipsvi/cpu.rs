@@ -12,6 +12,7 @@ use crate::render::occupancy::{March, Occupancy};
 use crate::render::raycast::cpu::emitted;
 use crate::render::reference::medium::Medium;
 use crate::render::reference::phase::henyey_greenstein;
+use crate::render::steps::{step_offset, ViewSteps};
 use crate::render::{RenderImage, BACKGROUND_DEPTH};
 use glam::Vec3;
 use rayon::prelude::*;
@@ -216,12 +217,13 @@ impl HeldRays {
 }
 
 impl Tracer<'_> {
-    /// Marches the view ray of `pixel` front to back, reading `cache` and pushing the entries
-    /// it leaves behind onto `writes`.
+    /// Marches the view ray of `pixel` front to back (its steps shifted by the pixel's
+    /// [`step_offset`]), reading `cache` and pushing the entries it leaves behind onto `writes`.
     fn trace(&self, pixel: u32, cache: &[u64], writes: &mut Vec<(u32, u64)>) -> PixelOut {
         let input = self.input;
         let camera = input.camera;
-        let ray = camera.ray(pixel % camera.width, pixel / camera.width);
+        let (i, j) = (pixel % camera.width, pixel / camera.width);
+        let ray = camera.ray(i, j);
         let mut out = PixelOut {
             transmittance: 1.0,
             depth: BACKGROUND_DEPTH,
@@ -232,20 +234,12 @@ impl Tracer<'_> {
         let Some((t_near, t_far)) = intersect_box(&ray, lo, hi) else {
             return out;
         };
-        let step = self.step;
-        let steps = ((t_far - t_near) / step).ceil() as u32;
-        let march = March {
-            index_origin: volume.to_index(ray.origin),
-            index_dir: ray.dir / volume.spacing(),
-            start: t_near,
-            step,
-            steps,
-        };
+        let steps = ViewSteps::new(t_near, t_far, self.step, step_offset(i, j));
+        let march = steps.march(volume.to_index(ray.origin), ray.dir / volume.spacing());
         let mut held = HeldRays::default();
         let mut k = 0;
-        while k < steps {
-            let ta = t_near + k as f32 * step;
-            let dt = (t_far - ta).min(step);
+        while k < steps.count {
+            let (ta, dt) = steps.segment(k);
             let x = ray.origin + (ta + 0.5 * dt) * ray.dir;
             if let Some(next) = self.occupancy.skip(volume.to_index(x), k, &march) {
                 k = next;

@@ -10,7 +10,8 @@
 //! after it (the paper's ping-pong), so the pixels of a line are independent.
 //!
 //! The optical model is the Monte Carlo `single` reference's (Eq. 2 of the paper, I_ss):
-//! front-to-back compositing as the ray caster's (steps of `step`, midpoint samples, opacity
+//! front-to-back compositing as the ray caster's (steps of `step` shifted per pixel as
+//! [`crate::render::steps`] says, midpoint samples, opacity
 //! 1 - exp(-sigma_t dt), early ray termination), and a sample at x scatters
 //! `albedo * p_HG(g, l . d) * E_l(x) * T_l(x)` towards the eye per unit opacity, T_l being the
 //! transmittance of the light from where it enters the volume's box to x.

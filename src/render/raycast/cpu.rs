@@ -6,7 +6,8 @@ use crate::classify::Optical;
 use crate::error::Result;
 use crate::lights::{incident, Light};
 use crate::progress::Progress;
-use crate::render::occupancy::{March, Occupancy};
+use crate::render::occupancy::Occupancy;
+use crate::render::steps::{step_offset, ViewSteps};
 use crate::render::{RenderImage, BACKGROUND_DEPTH};
 use glam::Vec3;
 use rayon::prelude::*;
@@ -27,7 +28,9 @@ pub fn render(input: &RaycastInput, progress: &dyn Progress) -> Result<RenderIma
         .enumerate()
         .for_each(|(j, (rgba_row, depth_row))| {
             for (i, (rgba, depth)) in rgba_row.iter_mut().zip(depth_row).enumerate() {
-                (*rgba, *depth) = march(input, &setup, &occupancy, &cam.ray(i as u32, j as u32));
+                let (i, j) = (i as u32, j as u32);
+                let offset = step_offset(i, j);
+                (*rgba, *depth) = march(input, &setup, &occupancy, &cam.ray(i, j), offset);
             }
             let done = rows_done.fetch_add(1, Ordering::Relaxed) + 1;
             progress.update(done, cam.height as u64);
@@ -35,12 +38,14 @@ pub fn render(input: &RaycastInput, progress: &dyn Progress) -> Result<RenderIma
     Ok(img)
 }
 
-/// Marches one ray front to back, jumping over empty cells; returns (RGBA, depth).
+/// Marches one ray front to back, its steps shifted back by `offset` of a step (its pixel's
+/// [`step_offset`]), jumping over empty cells; returns (RGBA, depth).
 pub fn march(
     input: &RaycastInput,
     setup: &RaycastSetup,
     occupancy: &Occupancy,
     ray: &Ray,
+    offset: f32,
 ) -> ([f32; 4], f32) {
     let background = input.lighting.background;
     let (lo, hi) = input.volume.bounds();
@@ -57,24 +62,16 @@ pub fn march(
     let shaded = input.params.shading.gradient().is_some();
     let ambient = input.lighting.ambient();
     let ert = input.params.ert_threshold;
-    let step = setup.step;
-    let steps = ((t_far - t_near) / step).ceil() as u32;
+    let steps = ViewSteps::new(t_near, t_far, setup.step, offset);
 
     let mut radiance = Vec3::ZERO;
     let mut transmittance = 1.0f32;
     let mut depth = BACKGROUND_DEPTH;
     // The ray in index coordinates, for cell exits.
-    let march = March {
-        index_origin: volume.to_index(ray.origin),
-        index_dir: ray.dir / volume.spacing(),
-        start: t_near,
-        step,
-        steps,
-    };
+    let march = steps.march(volume.to_index(ray.origin), ray.dir / volume.spacing());
     let mut k = 0;
-    while k < steps {
-        let ta = t_near + k as f32 * step;
-        let dt = (t_far - ta).min(step);
+    while k < steps.count {
+        let (ta, dt) = steps.segment(k);
         let p = ray.origin + (ta + 0.5 * dt) * ray.dir;
         if let Some(next) = occupancy.skip(volume.to_index(p), k, &march) {
             k = next;
@@ -224,9 +221,10 @@ mod tests {
             for j in 0..40 {
                 for i in 0..40 {
                     let ray = camera.ray(i, j);
+                    let offset = step_offset(i, j);
                     assert_eq!(
-                        march(&input, &setup, &built, &ray),
-                        march(&input, &setup, &full, &ray),
+                        march(&input, &setup, &built, &ray, offset),
+                        march(&input, &setup, &full, &ray, offset),
                         "{name}: pixel ({i}, {j})"
                     );
                 }

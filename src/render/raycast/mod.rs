@@ -2,8 +2,10 @@
 //! with early ray termination. `cpu` and `gpu` are twins that produce the same image.
 //!
 //! Per ray: the ray is clipped to the volume's bounding box; the segment is cut into steps of
-//! length `step` (the last one shorter) and sampled at each step's midpoint. A step of length d
-//! with extinction sigma_t has opacity alpha = 1 - exp(-sigma_t d) and adds
+//! length `step`, shifted back by the pixel's own fraction of a step (the first and last one
+//! shorter: [`crate::render::steps`], which turns step banding into fine noise), and sampled at
+//! each step's midpoint. A step of length d with extinction sigma_t has opacity
+//! alpha = 1 - exp(-sigma_t d) and adds
 //! `T * (alpha * albedo * L_in + emission * alpha / sigma_t)` (emission * d when sigma_t = 0),
 //! the exact integral for constant properties over the step. After the march the background
 //! adds `T * L_b`; alpha is 1 - T. Depth is where T falls through 0.5, found exactly inside the
