@@ -1,20 +1,21 @@
 //! `occlux gallery SCENE`: one volume, every registered method at each of its chart settings
 //! side by side, beside Occlux's Monte Carlo at a few samples and the path-traced truth, each
-//! with its time and its error against the truth under it. The scene's lights light every
-//! tile; a method renders those it takes (so a method without shadows, or without ambient
-//! light, shows what that costs). Writes OUT/gallery.png and OUT/gallery.json.
+//! with its time and its error against the truth under it; a group of rows per lighting (as
+//! `occlux chart` lights a scene: its ambient lights, its suns and lamps), a method in each
+//! lighting whose lights it renders. Writes OUT/gallery.png and OUT/gallery.json.
 
 use crate::error::{Error, Result};
 use crate::eval::bench::timed_keeping;
+use crate::eval::chart::measure::LightingMode;
 use crate::eval::chart::plot::{png_font_registered, write_png, FAMILY, FONT_PATHS};
 use crate::export::png::tone_map;
 use crate::gpu::{Compute, DeviceChoice};
-use crate::plan::command::scene_to_plan;
-use crate::plan::measure::{monte_carlo, render_method, resized, Subject, Truth};
-use crate::plan::{truth_estimator, Choice, Scattering};
+use crate::plan::measure::{monte_carlo, render_method, Subject, Truth};
+use crate::plan::Choice;
 use crate::progress::Progress;
 use crate::registry::METHODS;
 use crate::render::RenderImage;
+use crate::scene::Scene;
 use plotters::prelude::*;
 use serde::Serialize;
 use std::path::PathBuf;
@@ -37,6 +38,10 @@ pub struct GalleryArgs {
     /// Exposure of the tiles' tone map (Blender's Standard view).
     #[arg(long, default_value_t = 1.0)]
     pub exposure: f32,
+    /// Lightings, a group of rows each: ambient (the scene's ambient lights, or radiance 1),
+    /// sun (its suns and lamps), multi (the same with 8 bounces); as `occlux chart`.
+    #[arg(long, value_delimiter = ',', default_value = "ambient,sun")]
+    pub lightings: Vec<LightingMode>,
     #[arg(long, value_enum, default_value = "cpu")]
     pub device: DeviceChoice,
     #[arg(short, long, default_value = "occlux-gallery")]
@@ -54,14 +59,22 @@ struct Tile {
     image: RenderImage,
 }
 
+/// The tiles of one lighting: its methods, Monte Carlo and the truth.
+#[derive(Serialize)]
+struct Group {
+    lighting: &'static str,
+    /// The truth's estimator and its own relative noise.
+    truth: &'static str,
+    truth_noise: f64,
+    tiles: Vec<Tile>,
+}
+
 #[derive(Serialize)]
 struct Report<'a> {
     scene: String,
     device: String,
-    truth: String,
     truth_spp: u32,
-    truth_noise: f64,
-    tiles: &'a [Tile],
+    groups: &'a [Group],
 }
 
 /// Tiles per row.
@@ -99,49 +112,83 @@ pub fn run(args: &GalleryArgs, quiet: bool) -> Result<()> {
     if let Some(line) = notice {
         crate::progress::notice(quiet, line);
     }
-    let mut loaded = scene_to_plan(&args.scene)?.load()?;
-    loaded.scene.camera = resized(&loaded.scene.camera, args.size);
+    let (tree, base) = Scene::file_tree(&args.scene)?;
+    let bar = crate::progress::Bar::new(quiet, args.lightings.len() as u64, "gallery");
+    let mut groups = vec![];
+    for (n, &light) in args.lightings.iter().enumerate() {
+        let lit = light
+            .scene_tree(tree.clone(), &base, args.size)
+            .map_err(|e| Error::format(&args.scene, e.to_string()))?;
+        let scene = Scene::from_value(lit, &base)?;
+        groups.push(group(&scene, light, args, &compute, &|line: &str| {
+            bar.message(&format!("{}: {line}", light.name()))
+        })?);
+        bar.update(n as u64 + 1, args.lightings.len() as u64);
+    }
+    bar.finish();
+    let (rgb, size) = compose(&groups, args.exposure, &png)?;
+    // The picture and its numbers as one set.
+    let mut set = crate::export::atomic::OutputSet::new(&args.out)?;
+    write_png(&set.path("gallery.png")?, &rgb, size)?;
+    let report = Report {
+        scene: args.scene.display().to_string(),
+        device: compute.describe(),
+        truth_spp: args.spp,
+        groups: &groups,
+    };
+    super::write_report(&set.path("gallery.json")?, &report, true)?;
+    crate::progress::report_written(&set.commit()?, quiet);
+    Ok(())
+}
+
+/// One lighting's tiles: every registered method at each of its chart settings that renders
+/// some of its lights, Monte Carlo at a few samples, and the truth.
+fn group(
+    scene: &Scene,
+    light: LightingMode,
+    args: &GalleryArgs,
+    compute: &Compute,
+    say: &dyn Fn(&str),
+) -> Result<Group> {
+    let loaded = scene.load()?;
     let lut = loaded.scene.classification.bake(&loaded.volume);
     let subject = Subject {
         scene: &loaded.scene,
         volume: &loaded.volume,
         lut: &lut,
-        compute: &compute,
+        compute,
     };
     let camera = loaded.scene.camera;
-    let estimator = truth_estimator(&loaded.scene.lighting, Scattering::Single);
-    let settings: Vec<_> = METHODS
-        .iter()
-        .filter(|spec| !spec.lights_of(&loaded.scene.lighting).lights.is_empty())
-        .flat_map(|spec| spec.chart.iter().map(move |setting| (spec, setting)))
-        .collect();
-    let total = settings.len() as u64 + 2;
-    let bar = crate::progress::Bar::new(quiet, total, "gallery");
-    bar.message("the truth");
+    let estimator = light.estimator();
+    say("the truth");
     let (truth_image, truth_seconds) = monte_carlo(&subject, &camera, estimator, args.spp, 11)?;
     let truth = Truth::new(&subject, camera, &truth_image)?;
     let mut tiles = vec![];
-    for (spec, setting) in settings {
-        let method = spec.at_setting(setting)?;
-        let label = Choice::Method {
-            method: method.clone(),
-            setting: setting.replace('\n', ", "),
+    for spec in METHODS {
+        if spec.lights_of(&loaded.scene.lighting).lights.is_empty() {
+            continue;
         }
-        .label();
-        bar.message(&label);
-        let (timing, (image, _)) =
-            timed_keeping(args.repeats, || render_method(&subject, &method, &camera))?;
-        let (rmse, bias) = truth.error(&image.rgba, 0.0)?;
-        tiles.push(Tile {
-            label,
-            seconds: timing.median_ms / 1e3,
-            rel_rmse: Some(rmse),
-            rel_bias: Some(bias),
-            image,
-        });
-        bar.update(tiles.len() as u64, total);
+        for setting in spec.chart {
+            let method = spec.at_setting(setting)?;
+            let label = Choice::Method {
+                method: method.clone(),
+                setting: setting.replace('\n', ", "),
+            }
+            .label();
+            say(&label);
+            let (timing, (image, _)) =
+                timed_keeping(args.repeats, || render_method(&subject, &method, &camera))?;
+            let (rmse, bias) = truth.error(&image.rgba, 0.0)?;
+            tiles.push(Tile {
+                label,
+                seconds: timing.median_ms / 1e3,
+                rel_rmse: Some(rmse),
+                rel_bias: Some(bias),
+                image,
+            });
+        }
     }
-    bar.message("Monte Carlo");
+    say("Monte Carlo");
     let (mc, mc_seconds) = monte_carlo(&subject, &camera, estimator, args.mc_spp, 2)?;
     let (rmse, bias) = truth.error(&mc.mean, 0.0)?;
     tiles.push(Tile {
@@ -156,36 +203,41 @@ pub fn run(args: &GalleryArgs, quiet: bool) -> Result<()> {
         image: mc.to_render(),
     });
     tiles.push(Tile {
-        label: format!("truth: monte-carlo {} {} spp", estimator.name(), args.spp),
+        label: format!("{} truth ({} spp)", light.name(), args.spp),
         seconds: truth_seconds,
         rel_rmse: None,
         rel_bias: None,
         image: truth_image.to_render(),
     });
-    bar.finish();
-    let (rgb, size) = compose(&tiles, args.exposure, &png)?;
-    // The picture and its numbers as one set.
-    let mut set = crate::export::atomic::OutputSet::new(&args.out)?;
-    write_png(&set.path("gallery.png")?, &rgb, size)?;
-    let report = Report {
-        scene: args.scene.display().to_string(),
-        device: compute.describe(),
-        truth: estimator.name().to_owned(),
-        truth_spp: args.spp,
+    Ok(Group {
+        lighting: light.name(),
+        truth: estimator.name(),
         truth_noise: truth.noise,
-        tiles: &tiles,
-    };
-    super::write_report(&set.path("gallery.json")?, &report, true)?;
-    crate::progress::report_written(&set.commit()?, quiet);
-    Ok(())
+        tiles,
+    })
 }
 
-/// The tiles in rows of [`COLUMNS`], each tone-mapped with its caption under it, as RGB.
-fn compose(tiles: &[Tile], exposure: f32, path: &std::path::Path) -> Result<(Vec<u8>, (u32, u32))> {
-    let (w, h) = (tiles[0].image.width, tiles[0].image.height);
-    let columns = tiles.len().min(COLUMNS) as u32;
-    let rows = tiles.len().div_ceil(COLUMNS) as u32;
-    let size = (w * columns, (h + CAPTION) * rows);
+/// Each group's tiles in rows of [`COLUMNS`] (a group starts a row), each tone-mapped with
+/// its caption under it, as RGB.
+fn compose(
+    groups: &[Group],
+    exposure: f32,
+    path: &std::path::Path,
+) -> Result<(Vec<u8>, (u32, u32))> {
+    let first = &groups[0].tiles[0].image;
+    let (w, h) = (first.width, first.height);
+    let columns = COLUMNS as u32;
+    // Each tile's place: (column, row).
+    let mut places = vec![];
+    let mut row = 0u32;
+    for g in groups {
+        for n in 0..g.tiles.len() as u32 {
+            places.push((n % columns, row + n / columns));
+        }
+        row += (g.tiles.len() as u32).div_ceil(columns);
+    }
+    let tiles: Vec<&Tile> = groups.iter().flat_map(|g| &g.tiles).collect();
+    let size = (w * columns, (h + CAPTION) * row);
     let mut rgb = vec![24u8; size.0 as usize * size.1 as usize * 3];
     for (n, tile) in tiles.iter().enumerate() {
         let (x0, y0) = (
