@@ -67,7 +67,7 @@ fn camera_at(base: &Camera, azimuth_deg: f32) -> Camera {
     .unwrap()
 }
 
-/// `base` with `spec`'s lights of `lights` (a method's, or one kind for a reference).
+/// `base` with only its lights of the `kinds` given (a method's, or one kind for a reference).
 fn lit_by(base: &Scene, kinds: &[LightKind]) -> Scene {
     let mut s = base.clone();
     s.lighting = Lighting {
@@ -249,6 +249,16 @@ fn flicker(images: &[RenderImage], references: &[Frame]) -> Flicker {
 
 #[test]
 fn the_orbit_flickers_no_more_than_measured() {
+    // Every registered method at its defaults on the 36-frame orbit, against the references'
+    // change between the same frames (ambient: Estimator::Ambient, the sun: Estimator::Single,
+    // both: their sum). Flicker is mean |dI - dR| / mean R over the volume's pixels; the
+    // references' noise (256 spp) alone would give 0.042 (the sun's), 0.093 (ambient's) and
+    // 0.071 (their sum), stated per method and taken off in quadrature ("beyond noise"). A
+    // method much brighter than its reference changes more for the same motion, so the flicker
+    // is also measured against the reference scaled to the method's brightness. A pop (a
+    // switch of slicing axis, of sweep direction) shows as a worst step far above the median.
+    // The references take most of the file's time: 256 spp is where their noise is below every
+    // method's flicker as is (at 128 spp the ambient reference's, about 0.13, would equal DOS's).
     let base = orbit_scene();
     let volume = base.load_volume().unwrap();
     let azimuths: Vec<f32> = (0..FRAMES)
@@ -321,7 +331,7 @@ fn the_orbit_flickers_no_more_than_measured() {
             ("flicker", beyond, bounds[0]),
             ("matched", matched, bounds[1]),
         ] {
-            if !(value < bound) {
+            if value.is_nan() || value >= bound {
                 failures.push(format!(
                     "{}: {what} beyond noise {value:.4} >= {bound:.4}",
                     spec.name
