@@ -7,138 +7,23 @@
 //! Run: `cargo test --release --test stability -- --nocapture` (prints the measured numbers;
 //! docs/failure-modes.md tabulates them).
 
+mod common;
+
+use common::render::{
+    check_finite, finite_problems, range_of, reference_of, render, render_on, scene, Range,
+};
 use glam::Vec3;
 use occlux::eval::sweep_accuracy::design_error;
-use occlux::gpu::Compute;
 use occlux::lights::{Light, Lighting};
-use occlux::progress::NoProgress;
 use occlux::registry::{find, ParamKind, METHODS};
-use occlux::render::reference::{self, Estimator, ReferenceImage, ReferenceInput, ReferenceParams};
-use occlux::render::{MethodInput, RenderImage, Rendered};
+use occlux::render::reference::{Estimator, ReferenceImage};
+use occlux::render::{RenderImage, Rendered};
 use occlux::scene::{Method, Scene};
 use occlux::volume::Volume;
 use std::panic::{catch_unwind, AssertUnwindSafe};
 use std::path::Path;
 
 // ---- Helpers ----
-
-/// What [`check_finite`] measured: the range of RGB and alpha over the image.
-#[derive(Debug, Clone, Copy)]
-struct Range {
-    rgb: (f32, f32),
-    alpha: (f32, f32),
-}
-
-/// Asserts every RGBA, depth (and shading-factor) value of `image` is finite, RGB >= 0 and
-/// alpha in [0, 1]; the message counts the NaN and infinite values. Returns the value range.
-fn check_finite(name: &str, image: &RenderImage) -> Range {
-    let problems = finite_problems(image);
-    assert!(problems.is_empty(), "{name}: {problems}");
-    range_of(image)
-}
-
-/// As [`check_finite`], but returns the problem as text ("" when none) instead of panicking.
-fn finite_problems(image: &RenderImage) -> String {
-    let values = image
-        .rgba
-        .iter()
-        .flatten()
-        .chain(&image.depth)
-        .chain(image.factor.iter().flat_map(|f| f.values.as_flattened()));
-    let (mut nan, mut inf) = (0usize, 0usize);
-    for v in values {
-        nan += v.is_nan() as usize;
-        inf += v.is_infinite() as usize;
-    }
-    let negative = image
-        .rgba
-        .iter()
-        .flat_map(|p| &p[..3])
-        .filter(|v| **v < 0.0)
-        .count();
-    let bad_alpha = image
-        .rgba
-        .iter()
-        .filter(|p| !(0.0..=1.0).contains(&p[3]))
-        .count();
-    let n = image.rgba.len();
-    let expected = n == (image.width * image.height) as usize && image.depth.len() == n;
-    if nan + inf + negative + bad_alpha == 0 && expected {
-        String::new()
-    } else {
-        format!(
-            "{nan} NaN, {inf} infinite, {negative} negative RGB, {bad_alpha} alpha outside [0, 1] \
-             over {n} pixels (sizes as expected: {expected})"
-        )
-    }
-}
-
-impl std::fmt::Display for Range {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        write!(
-            f,
-            "RGB {:.4e}..{:.4e}, alpha {:.4}..{:.4}",
-            self.rgb.0, self.rgb.1, self.alpha.0, self.alpha.1
-        )
-    }
-}
-
-fn range_of(image: &RenderImage) -> Range {
-    let fold = |it: &mut dyn Iterator<Item = f32>| {
-        it.fold((f32::INFINITY, f32::NEG_INFINITY), |(lo, hi), v| {
-            (lo.min(v), hi.max(v))
-        })
-    };
-    Range {
-        rgb: fold(&mut image.rgba.iter().flat_map(|p| p[..3].iter().copied())),
-        alpha: fold(&mut image.rgba.iter().map(|p| p[3])),
-    }
-}
-
-fn scene(text: &str) -> Scene {
-    Scene::parse(text, Path::new(".")).unwrap_or_else(|e| panic!("{e}\n{text}"))
-}
-
-/// Renders `scene`'s method on the CPU, on `volume` (the scene's own when None).
-fn render_on(scene: &Scene, volume: &Volume) -> occlux::error::Result<Rendered> {
-    let lut = scene.classification.bake(volume);
-    scene.method.render(&MethodInput {
-        volume,
-        classification: &scene.classification,
-        lut: &lut,
-        camera: &scene.camera,
-        lighting: &scene.lighting,
-        compute: &Compute::Cpu,
-        progress: &NoProgress,
-    })
-}
-
-fn render(scene: &Scene) -> occlux::error::Result<RenderImage> {
-    let volume = scene.load_volume()?;
-    render_on(scene, &volume).map(|r| r.image)
-}
-
-/// The Monte Carlo reference of the scene (its own lights) at `spp`.
-fn reference_of(scene: &Scene, estimator: Estimator, spp: u32) -> ReferenceImage {
-    let volume = scene.load_volume().unwrap();
-    let lut = scene.classification.bake(&volume);
-    reference::render(
-        &ReferenceInput {
-            volume: &volume,
-            lut: &lut,
-            camera: &scene.camera,
-            lighting: &scene.lighting,
-            params: &ReferenceParams {
-                estimator,
-                spp,
-                seed: 11,
-                g: 0.0,
-            },
-        },
-        &NoProgress,
-    )
-    .unwrap()
-}
 
 /// (relative RMSE, the part the reference's noise does not explain, bias, noise).
 fn error_against(image: &RenderImage, reference: &ReferenceImage) -> (f64, f64, f64, f64) {

@@ -4,6 +4,7 @@
 
 pub mod layers;
 pub mod quadrature;
+pub mod render;
 pub mod twins;
 
 use std::path::{Path, PathBuf};
