@@ -36,7 +36,12 @@ fn render_on_cpu(scene: &Path, out: &Path, extra: &[&str]) -> Output {
 fn report_of(args: &[&str], json: &Path) -> serde_json::Value {
     let mut all = args.to_vec();
     all.extend(["-o", json.to_str().unwrap()]);
-    let run = occlux(&all);
+    succeeds_with_report(&all, json)
+}
+
+/// Runs a command that must succeed, and reads the JSON report it wrote at `json`.
+fn succeeds_with_report(args: &[&str], json: &Path) -> serde_json::Value {
+    let run = occlux(args);
     assert!(
         run.status.success(),
         "{}",
@@ -1005,31 +1010,27 @@ fn chart_measures_every_registered_method_and_writes_tables_and_figures() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("chart");
     let demo = concat!(env!("CARGO_MANIFEST_DIR"), "/examples/demo.toml");
-    let run = occlux(&[
-        "chart",
-        "--scenes",
-        demo,
-        "--lightings",
-        "ambient,sun",
-        "--size",
-        "20",
-        "--spp",
-        "32",
-        "--mc-spp",
-        "2,8",
-        "--no-cycles",
-        "--repeats",
-        "1",
-        "-o",
-        out.to_str().unwrap(),
-    ]);
-    assert!(
-        run.status.success(),
-        "{}",
-        String::from_utf8_lossy(&run.stderr)
+    let report = succeeds_with_report(
+        &[
+            "chart",
+            "--scenes",
+            demo,
+            "--lightings",
+            "ambient,sun",
+            "--size",
+            "20",
+            "--spp",
+            "32",
+            "--mc-spp",
+            "2,8",
+            "--no-cycles",
+            "--repeats",
+            "1",
+            "-o",
+            out.to_str().unwrap(),
+        ],
+        &out.join("chart.json"),
     );
-    let report: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(out.join("chart.json")).unwrap()).unwrap();
     let panels = report["panels"].as_array().unwrap();
     assert_eq!(panels.len(), 2);
     let mut rows = 0;
@@ -1281,5 +1282,51 @@ fn plan_says_what_it_chose_and_why() {
     assert!(
         !bad.status.success() && stderr.contains("error budget"),
         "{stderr}"
+    );
+}
+
+#[test]
+fn gallery_shows_every_method_beside_the_truth_with_its_time_and_error() {
+    use occlux::registry::METHODS;
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("gallery");
+    let demo = concat!(env!("CARGO_MANIFEST_DIR"), "/examples/demo.toml");
+    let small = "--size 128 --spp 16 --mc-spp 4 --repeats 1 --lightings ambient,sun";
+    let mut args = vec!["gallery", demo, "-o", out.to_str().unwrap()];
+    args.extend(small.split(' '));
+    let report = succeeds_with_report(&args, &out.join("gallery.json"));
+    let groups = report["groups"].as_array().unwrap();
+    let mut rows = 0;
+    for group in groups {
+        let tiles = group["tiles"].as_array().unwrap();
+        let lights = if group["lighting"] == "ambient" {
+            "ambient"
+        } else {
+            "directional"
+        };
+        let settings: usize = METHODS
+            .iter()
+            .filter(|m| m.lights.iter().any(|l| l.name() == lights))
+            .map(|m| m.chart.len())
+            .sum();
+        // Every setting that renders the lighting, Monte Carlo, and the truth (no error: it is
+        // what the others are measured against).
+        assert_eq!(tiles.len(), settings + 2, "{group}");
+        for tile in &tiles[..tiles.len() - 1] {
+            let error = tile["rel_rmse"].as_f64().unwrap();
+            assert!(error.is_finite() && error >= 0.0, "{tile}");
+            assert!(tile["seconds"].as_f64().unwrap() > 0.0, "{tile}");
+        }
+        assert!(tiles.last().unwrap()["rel_rmse"].is_null());
+        rows += tiles.len().div_ceil(4);
+    }
+    // The picture: four tiles across, each group starting a row, a caption under each tile.
+    let decoder = png::Decoder::new(std::io::BufReader::new(
+        std::fs::File::open(out.join("gallery.png")).unwrap(),
+    ));
+    let info = decoder.read_info().unwrap().info().clone();
+    assert_eq!(
+        (info.width, info.height),
+        (4 * 128, rows as u32 * (128 + 40))
     );
 }

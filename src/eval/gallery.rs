@@ -11,9 +11,8 @@ use crate::eval::chart::plot::{png_font_registered, write_png, FAMILY, FONT_PATH
 use crate::export::png::tone_map;
 use crate::gpu::{Compute, DeviceChoice};
 use crate::plan::measure::{monte_carlo, render_method, Subject, Truth};
-use crate::plan::Choice;
+use crate::plan::{method_candidates, Choice};
 use crate::progress::Progress;
-use crate::registry::METHODS;
 use crate::render::RenderImage;
 use crate::scene::Scene;
 use plotters::prelude::*;
@@ -164,29 +163,22 @@ fn group(
     let (truth_image, truth_seconds) = monte_carlo(&subject, &camera, estimator, args.spp, 11)?;
     let truth = Truth::new(&subject, camera, &truth_image)?;
     let mut tiles = vec![];
-    for spec in METHODS {
-        if spec.lights_of(&loaded.scene.lighting).lights.is_empty() {
+    for choice in method_candidates(&loaded.scene.lighting)? {
+        let Choice::Method { method, .. } = &choice else {
             continue;
-        }
-        for setting in spec.chart {
-            let method = spec.at_setting(setting)?;
-            let label = Choice::Method {
-                method: method.clone(),
-                setting: setting.replace('\n', ", "),
-            }
-            .label();
-            say(&label);
-            let (timing, (image, _)) =
-                timed_keeping(args.repeats, || render_method(&subject, &method, &camera))?;
-            let (rmse, bias) = truth.error(&image.rgba, 0.0)?;
-            tiles.push(Tile {
-                label,
-                seconds: timing.median_ms / 1e3,
-                rel_rmse: Some(rmse),
-                rel_bias: Some(bias),
-                image,
-            });
-        }
+        };
+        let label = choice.label();
+        say(&label);
+        let (timing, (image, _)) =
+            timed_keeping(args.repeats, || render_method(&subject, method, &camera))?;
+        let (rmse, bias) = truth.error(&image.rgba, 0.0)?;
+        tiles.push(Tile {
+            label,
+            seconds: timing.median_ms / 1e3,
+            rel_rmse: Some(rmse),
+            rel_bias: Some(bias),
+            image,
+        });
     }
     say("Monte Carlo");
     let (mc, mc_seconds) = monte_carlo(&subject, &camera, estimator, args.mc_spp, 2)?;

@@ -14,7 +14,6 @@ use crate::gpu::{Compute, DeviceChoice};
 use crate::plan::command::scene_to_plan;
 use crate::plan::measure::{monte_carlo, pixels, render_method, resized, CostLaw, Subject, Truth};
 use crate::plan::{self, Budget, Choice, Scattering};
-use crate::registry::METHODS;
 use serde::Serialize;
 use std::path::PathBuf;
 
@@ -158,26 +157,19 @@ fn check_scene(
     let (image, _) = monte_carlo(&subject, &camera, estimator, args.spp, 11)?;
     let truth = Truth::new(&subject, camera, &image)?;
     let mut methods = vec![];
-    for spec in METHODS {
-        if spec.lights_of(&scene.lighting).lights.is_empty() {
+    for choice in plan::method_candidates(&scene.lighting)? {
+        let Choice::Method { method, .. } = &choice else {
             continue;
-        }
-        for setting in spec.chart {
-            let method = spec.at_setting(setting)?;
-            let label = Choice::Method {
-                method: method.clone(),
-                setting: setting.replace('\n', ", "),
-            }
-            .label();
-            say(&format!("{name}: {label}"));
-            let (timing, (image, _)) =
-                timed_keeping(args.repeats, || render_method(&subject, &method, &camera))?;
-            methods.push(Measured {
-                label,
-                seconds: timing.median_ms / 1e3,
-                error: truth.error(&image.rgba, 0.0)?.0,
-            });
-        }
+        };
+        let label = choice.label();
+        say(&format!("{name}: {label}"));
+        let (timing, (image, _)) =
+            timed_keeping(args.repeats, || render_method(&subject, method, &camera))?;
+        methods.push(Measured {
+            label,
+            seconds: timing.median_ms / 1e3,
+            error: truth.error(&image.rgba, 0.0)?.0,
+        });
     }
     // Monte Carlo's noise per sample and cost law at the full size.
     let (_, few_seconds) = monte_carlo(&subject, &camera, estimator, 4, 13)?;

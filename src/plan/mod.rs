@@ -215,6 +215,25 @@ impl Choice {
     }
 }
 
+/// Every registered method at each of its chart settings (`MethodSpec::chart`) that renders
+/// some of `lighting`'s lights: the configurations the planner weighs (beside Monte Carlo),
+/// its validation measures and the gallery shows.
+pub fn method_candidates(lighting: &Lighting) -> Result<Vec<Choice>> {
+    let mut choices = vec![];
+    for spec in METHODS {
+        if spec.lights_of(lighting).lights.is_empty() {
+            continue;
+        }
+        for setting in spec.chart {
+            choices.push(Choice::Method {
+                method: spec.at_setting(setting)?,
+                setting: setting.replace('\n', ", "),
+            });
+        }
+    }
+    Ok(choices)
+}
+
 /// `single`, `multiple (8 bounces)`.
 fn estimator_label(estimator: Estimator) -> String {
     match estimator {
@@ -419,25 +438,16 @@ pub fn plan(subject: &Subject, budget: &Budget, progress: &dyn Fn(&str)) -> Resu
             estimates.push(lower_model(subject, &truth, lower, budget, full, &tiny)?);
         }
     }
-    for spec in METHODS {
-        if spec.lights_of(&scene.lighting).lights.is_empty() {
-            continue;
-        }
-        for setting in spec.chart {
-            let choice = Choice::Method {
-                method: spec.at_setting(setting)?,
-                setting: setting.replace('\n', ", "),
-            };
-            progress(&format!("pilot: {}", choice.label()));
-            let best = estimates
-                .iter()
-                .filter(|e| e.meets)
-                .map(|e| e.seconds)
-                .fold(f64::INFINITY, f64::min);
-            estimates.push(method_estimate(
-                subject, choice, &truth, budget, full, &tiny, best,
-            )?);
-        }
+    for choice in method_candidates(&scene.lighting)? {
+        progress(&format!("pilot: {}", choice.label()));
+        let best = estimates
+            .iter()
+            .filter(|e| e.meets)
+            .map(|e| e.seconds)
+            .fold(f64::INFINITY, f64::min);
+        estimates.push(method_estimate(
+            subject, choice, &truth, budget, full, &tiny, best,
+        )?);
     }
     let unmeasured = |e: &Estimate| e.error.is_none();
     estimates.sort_by(|a, b| {
