@@ -216,12 +216,13 @@ impl Choice {
 }
 
 /// Every registered method at each of its chart settings (`MethodSpec::chart`) that renders
-/// some of `lighting`'s lights: the configurations the planner weighs (beside Monte Carlo),
-/// its validation measures and the gallery shows.
+/// some of `lighting`'s lights (any, in a scene without lights: emission alone): the
+/// configurations the planner weighs (beside Monte Carlo), its validation measures and the
+/// gallery shows.
 pub fn method_candidates(lighting: &Lighting) -> Result<Vec<Choice>> {
     let mut choices = vec![];
     for spec in METHODS {
-        if spec.lights_of(lighting).lights.is_empty() {
+        if !lighting.lights.is_empty() && spec.lights_of(lighting).lights.is_empty() {
             continue;
         }
         for setting in spec.chart {
@@ -620,6 +621,34 @@ mod tests {
             truth_estimator(&lit(vec![ambient]), Scattering::Multiple),
             Estimator::Multiple { bounces: BOUNCES }
         );
+    }
+
+    #[test]
+    fn candidates_are_the_methods_that_render_the_lights() {
+        let names = |lights: Vec<Light>| -> Vec<&'static str> {
+            let lighting = Lighting {
+                lights,
+                background: Vec3::ZERO,
+            };
+            let mut names: Vec<_> = method_candidates(&lighting)
+                .unwrap()
+                .iter()
+                .map(|c| match c {
+                    Choice::Method { method, .. } => method.spec().name,
+                    Choice::MonteCarlo { .. } => "monte-carlo",
+                })
+                .collect();
+            names.dedup();
+            names
+        };
+        let sun = Light::Directional {
+            to_light: Vec3::Z,
+            irradiance: Vec3::ONE,
+        };
+        let sun_methods = names(vec![sun]);
+        assert!(sun_methods.contains(&"ipsvi") && !sun_methods.contains(&"dos"));
+        // Emission alone: every method renders it.
+        assert_eq!(names(vec![]).len(), METHODS.len());
     }
 
     #[test]
