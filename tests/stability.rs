@@ -14,7 +14,6 @@ use common::render::{
 };
 use glam::Vec3;
 use occlux::eval::sweep_accuracy::design_error;
-use occlux::lights::{Light, Lighting};
 use occlux::registry::{find, ParamKind, METHODS};
 use occlux::render::reference::{Estimator, ReferenceImage};
 use occlux::render::{RenderImage, Rendered};
@@ -494,16 +493,7 @@ fn every_method_on(what: &str, volume: &str, scale: f32, failures: &mut Vec<Stri
     for spec in METHODS {
         let method: Method = spec.at_setting("").unwrap();
         let mut s = base.clone();
-        s.lighting = Lighting {
-            lights: base
-                .lighting
-                .lights
-                .iter()
-                .filter(|l| spec.lights.contains(&l.kind()))
-                .copied()
-                .collect::<Vec<Light>>(),
-            background: base.lighting.background,
-        };
+        s.lighting = spec.lights_of(&base.lighting);
         s.method = method;
         let name = format!("{what}, {}", spec.name);
         match catch_unwind(AssertUnwindSafe(|| render_on(&s, &volume))) {

@@ -7,10 +7,10 @@ use crate::classify::Lut;
 use crate::error::{Error, Result};
 use crate::eval::sweep_accuracy::design_error;
 use crate::gpu::Compute;
-use crate::progress::NoProgress;
+use crate::progress::{NoProgress, Progress};
 use crate::registry::Method;
 use crate::render::reference::{self, Estimator, ReferenceImage, ReferenceInput, ReferenceParams};
-use crate::render::{MethodInput, RenderImage};
+use crate::render::{MethodInput, RenderImage, Rendered};
 use crate::scene::Scene;
 use crate::volume::Volume;
 use std::time::Instant;
@@ -103,24 +103,33 @@ impl Truth {
     }
 }
 
-/// A method setting rendered through `camera`: its image and wall time.
-pub fn render_method(
+/// A method rendered through `camera`, lit by the scene's lights that it renders.
+pub fn render_through(
     subject: &Subject,
     method: &Method,
     camera: &Camera,
-) -> Result<(RenderImage, f64)> {
+    progress: &dyn Progress,
+) -> Result<Rendered> {
     let lighting = method.spec().lights_of(&subject.scene.lighting);
-    let input = MethodInput {
+    method.render(&MethodInput {
         volume: subject.volume,
         classification: &subject.scene.classification,
         lut: subject.lut,
         camera,
         lighting: &lighting,
         compute: subject.compute,
-        progress: &NoProgress,
-    };
+        progress,
+    })
+}
+
+/// A method setting rendered through `camera`: its image and wall time.
+pub fn render_method(
+    subject: &Subject,
+    method: &Method,
+    camera: &Camera,
+) -> Result<(RenderImage, f64)> {
     let started = Instant::now();
-    let rendered = method.render(&input)?;
+    let rendered = render_through(subject, method, camera, &NoProgress)?;
     Ok((rendered.image, started.elapsed().as_secs_f64()))
 }
 

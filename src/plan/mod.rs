@@ -33,7 +33,9 @@ use crate::progress::Progress;
 use crate::registry::{Method, METHODS};
 use crate::render::reference::{Estimator, MAX_SPP};
 use crate::render::Rendered;
-use measure::{monte_carlo, pixels, render_method, resized, CostLaw, Subject, Truth};
+use measure::{
+    monte_carlo, pixels, render_method, render_through, resized, CostLaw, Subject, Truth,
+};
 use serde::Serialize;
 use stats::SceneStats;
 use std::time::Instant;
@@ -192,18 +194,7 @@ impl Choice {
     pub fn render(&self, subject: &Subject, progress: &dyn Progress) -> Result<Rendered> {
         let camera = &subject.scene.camera;
         match self {
-            Choice::Method { method, .. } => {
-                let lighting = method.spec().lights_of(&subject.scene.lighting);
-                method.render(&crate::render::MethodInput {
-                    volume: subject.volume,
-                    classification: &subject.scene.classification,
-                    lut: subject.lut,
-                    camera,
-                    lighting: &lighting,
-                    compute: subject.compute,
-                    progress,
-                })
-            }
+            Choice::Method { method, .. } => render_through(subject, method, camera, progress),
             Choice::MonteCarlo { estimator, spp } => {
                 let (image, _) = monte_carlo(subject, camera, *estimator, *spp, 1)?;
                 Ok(Rendered {
