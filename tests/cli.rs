@@ -1023,7 +1023,7 @@ fn chart_measures_every_registered_method_and_writes_tables_and_figures() {
             "32",
             "--mc-spp",
             "2,8",
-            "--no-cycles",
+            "--no-peers",
             "--repeats",
             "1",
             "-o",

@@ -76,9 +76,9 @@ impl CheckOptions<'_> {
     }
 }
 
-/// The Python that can run the harness: found (see [`find_python`]) and able to import bpy and
-/// `occlux.cycles`; `what` names the command in errors.
-fn harness_python(what: &str) -> Result<PathBuf> {
+/// The Python that can run `module`: found (see [`find_python`]) and able to import bpy and
+/// `module`; `what` names the command in errors.
+fn harness_python(what: &str, module: &str) -> Result<PathBuf> {
     let python = find_python().ok_or_else(|| {
         Error::param(
             what,
@@ -86,14 +86,14 @@ fn harness_python(what: &str) -> Result<PathBuf> {
         )
     })?;
     let probe = Command::new(&python)
-        .args(["-c", "import bpy, occlux.cycles"])
+        .args(["-c", &format!("import bpy, {module}")])
         .output()
         .map_err(|e| Error::io(&python, e))?;
     if !probe.status.success() {
         return Err(Error::param(
             what,
             format!(
-                "{} cannot import bpy and occlux.cycles ({}); {SETUP}",
+                "{} cannot import bpy and {module} ({}); {SETUP}",
                 python.display(),
                 String::from_utf8_lossy(&probe.stderr)
                     .trim()
@@ -106,9 +106,10 @@ fn harness_python(what: &str) -> Result<PathBuf> {
     Ok(python)
 }
 
-/// Runs `python -m MODULE ARGS`; an error naming `what` unless it succeeds.
-fn run_module(what: &str, module: &str, args: &[std::ffi::OsString]) -> Result<()> {
-    let python = harness_python(what)?;
+/// Runs `python -m MODULE ARGS` in the harness's Python; an error naming `what` unless it
+/// succeeds.
+pub(crate) fn run_module(what: &str, module: &str, args: &[std::ffi::OsString]) -> Result<()> {
+    let python = harness_python(what, module)?;
     let status = Command::new(&python)
         .args(["-m", module])
         .args(args)
@@ -119,7 +120,7 @@ fn run_module(what: &str, module: &str, args: &[std::ffi::OsString]) -> Result<(
     } else {
         Err(Error::param(
             what,
-            format!("the Cycles harness failed ({status})"),
+            format!("python -m {module} failed ({status})"),
         ))
     }
 }
@@ -128,49 +129,6 @@ fn run_module(what: &str, module: &str, args: &[std::ffi::OsString]) -> Result<(
 /// `options.out`. The harness computes Occlux's side in-process (the `occlux` package).
 pub fn run(options: &CheckOptions<'_>) -> Result<()> {
     run_module("check-cycles", "occlux.cycles", &options.harness_args())
-}
-
-/// One Cycles render of a time-error curve: its samples per pixel, its wall time from scratch
-/// (the volume build included) and the EXR it wrote.
-#[derive(Clone, Debug, serde::Deserialize, serde::Serialize)]
-pub struct CurvePoint {
-    pub spp: u32,
-    pub seconds: f64,
-    pub exr: PathBuf,
-}
-
-/// Renders `scene` with Cycles once per count of `spps` (`python -m occlux.cycles.curve`, which
-/// lights it for `estimator` as the cross-check does) into `out`, and returns the renders.
-pub fn curve(
-    scene: &Path,
-    estimator: &str,
-    spps: &[u32],
-    bounces: u32,
-    g: f32,
-    out: &Path,
-) -> Result<Vec<CurvePoint>> {
-    let spp_list: Vec<String> = spps.iter().map(u32::to_string).collect();
-    let mut args: Vec<std::ffi::OsString> = vec![scene.into()];
-    for (key, value) in [
-        ("--estimator", estimator.to_owned()),
-        ("--spp", spp_list.join(",")),
-        ("--bounces", bounces.to_string()),
-        ("--g", g.to_string()),
-    ] {
-        args.push(format!("{key}={value}").into());
-    }
-    args.push("--out".into());
-    args.push(out.into());
-    run_module("chart", "occlux.cycles.curve", &args)?;
-    #[derive(serde::Deserialize)]
-    struct Report {
-        points: Vec<CurvePoint>,
-    }
-    let path = out.join(format!("cycles-{estimator}-curve.json"));
-    let text = std::fs::read_to_string(&path).map_err(|e| Error::io(&path, e))?;
-    let report: Report = serde_json::from_str(&text)
-        .map_err(|e| Error::param("chart", format!("{}: {e}", path.display())))?;
-    Ok(report.points)
 }
 
 #[cfg(test)]

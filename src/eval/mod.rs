@@ -6,6 +6,7 @@ pub mod dos_accuracy;
 pub mod error_map;
 pub mod gallery;
 pub mod ipsvi_accuracy;
+pub mod peers;
 pub mod plan_check;
 pub mod sweep_accuracy;
 pub mod sweep_bench;

@@ -632,7 +632,8 @@ def test_the_chart_runs_cycles_beside_the_methods(tmp_path, monkeypatch):
     out = tmp_path / "chart"
     run_occlux(
         "chart", "--scenes", str(scene), "--lightings", "sun", "--size", "24", "--spp", "256",
-        "--mc-spp", "2,8", "--cycles-spp", "1,16", "--repeats", "1", "-o", str(out),
+        "--mc-spp", "2,8", "--peers", "cycles", "--cycles-spp", "1,16", "--repeats", "1",
+        "-o", str(out),
     )  # fmt: skip
     report = json.loads((out / "chart.json").read_text())
     (panel,) = report["panels"]

@@ -1,14 +1,15 @@
 //! The chart's measurements for one scene under one lighting: every registered method at each
-//! of its chart settings, Occlux's Monte Carlo and Cycles at increasing samples per pixel, all
-//! against the path-traced truth of the same lighting (Occlux's Monte Carlo reference at high
-//! spp, which `occlux check-cycles` shows agrees with Cycles).
+//! of its chart settings, Occlux's Monte Carlo and Cycles at increasing samples per pixel, and
+//! the other peers (VTK, EEVEE) along their quality axes, all against the path-traced truth of
+//! the same lighting (Occlux's Monte Carlo reference at high spp, which `occlux check-cycles`
+//! shows agrees with Cycles).
 
 use super::pareto::{self, Curve, Reached};
 use crate::classify::Lut;
 use crate::error::{Error, Result};
 use crate::eval::bench::timed_keeping;
-use crate::eval::cycles;
 use crate::eval::dos_accuracy::seeded_reference_image;
+use crate::eval::peers::{self, Peer};
 use crate::eval::sweep_accuracy::design_error;
 use crate::export::exr::read_exr;
 use crate::gpu::Compute;
@@ -139,6 +140,28 @@ pub struct CurvePoint {
     pub rel_bias: f64,
 }
 
+/// A peer renderer (VTK, EEVEE) at one of its settings.
+#[derive(Clone, Debug, Serialize)]
+pub struct PeerPoint {
+    /// Its setting in words, as the peer states it.
+    pub setting: String,
+    pub seconds: f64,
+    pub rel_rmse: f64,
+    pub rel_bias: f64,
+    /// Cycles' time to the same error over this point's time (None without a Cycles curve).
+    pub speedup_vs_cycles: Option<f64>,
+}
+
+/// A peer renderer along its quality axis.
+#[derive(Clone, Debug, Serialize)]
+pub struct PeerSeries {
+    /// Its name in the legend ("VTK", "EEVEE").
+    pub peer: &'static str,
+    /// What its seconds include, as the peer states it.
+    pub timing: String,
+    pub points: Vec<PeerPoint>,
+}
+
 /// One scene under one lighting.
 #[derive(Clone, Debug, Serialize)]
 pub struct Panel {
@@ -150,6 +173,7 @@ pub struct Panel {
     pub points: Vec<Point>,
     pub monte_carlo: Vec<CurvePoint>,
     pub cycles: Vec<CurvePoint>,
+    pub peers: Vec<PeerSeries>,
 }
 
 /// What a panel is measured with.
@@ -157,10 +181,11 @@ pub struct Setup<'a> {
     pub compute: &'a Compute,
     pub reference_spp: u32,
     pub mc_spp: &'a [u32],
-    /// Cycles' sample counts; empty: no Cycles curve.
+    /// The peers to run (Cycles at `cycles_spp`).
+    pub peers: &'a [Peer],
     pub cycles_spp: &'a [u32],
     pub repeats: usize,
-    /// Where the lit scene file and Cycles' renders go.
+    /// Where the lit scene file and the peers' renders go.
     pub work: &'a Path,
     pub progress: &'a dyn Fn(&str),
 }
@@ -179,6 +204,22 @@ impl Truth<'_> {
     fn error(&self, image: &[[f32; 4]]) -> Result<(f64, f64)> {
         let (_, rmse, bias, _) = design_error(image, &self.mean, None, self.background)?;
         Ok((rmse, bias))
+    }
+
+    /// The same for an EXR a peer wrote (its first layer with R, G and B).
+    fn exr_error(&self, path: &Path) -> Result<(f64, f64)> {
+        let exr = read_exr(path)?;
+        let rgb = exr
+            .rgb()
+            .ok_or_else(|| Error::format(path, "no layer with R, G and B"))?;
+        if rgb.len() != self.mean.len() {
+            return Err(Error::format(
+                path,
+                format!("{} pixels, the scene has {}", rgb.len(), self.mean.len()),
+            ));
+        }
+        let rgba: Vec<[f32; 4]> = rgb.iter().map(|c| [c[0], c[1], c[2], 1.0]).collect();
+        self.error(&rgba)
     }
 }
 
@@ -234,13 +275,34 @@ pub fn panel(path: &Path, light: LightingMode, size: u32, setup: &Setup) -> Resu
     };
     let mut points = methods(&truth, &name, light, setup)?;
     let monte_carlo = mc_curve(&truth, estimator, setup)?;
-    let cycles = if setup.cycles_spp.is_empty() {
-        vec![]
-    } else {
-        (setup.progress)(&format!("{name} {}: Cycles", light.name()));
-        cycles_curve(&truth, &tree, &name, light, setup)?
-    };
-    mark(&mut points, &monte_carlo, &cycles);
+    let (mut cycles, mut peers) = (vec![], vec![]);
+    if !setup.peers.is_empty() {
+        let scene_file = lit_scene_file(&tree, &name, light, setup)?;
+        for &peer in setup.peers {
+            (setup.progress)(&format!("{name} {}: {}", light.name(), peer.label()));
+            let (timing, renders) = peer_series(&truth, peer, &scene_file, light, setup)?;
+            if peer == Peer::Cycles {
+                cycles = renders.into_iter().map(|(_, point)| point).collect();
+                continue;
+            }
+            let points = renders
+                .into_iter()
+                .map(|(setting, p)| PeerPoint {
+                    setting,
+                    seconds: p.seconds,
+                    rel_rmse: p.rel_rmse,
+                    rel_bias: p.rel_bias,
+                    speedup_vs_cycles: None,
+                })
+                .collect();
+            peers.push(PeerSeries {
+                peer: peer.label(),
+                timing,
+                points,
+            });
+        }
+    }
+    mark(&mut points, &mut peers, &monte_carlo, &cycles);
     Ok(Panel {
         scene: name,
         lighting: light.name(),
@@ -249,6 +311,7 @@ pub fn panel(path: &Path, light: LightingMode, size: u32, setup: &Setup) -> Resu
         points,
         monte_carlo,
         cycles,
+        peers,
     })
 }
 
@@ -312,56 +375,66 @@ fn mc_curve(truth: &Truth, estimator: Estimator, setup: &Setup) -> Result<Vec<Cu
         .collect()
 }
 
-/// Cycles at each of `setup.cycles_spp` on the lit scene, written as a scene file for the
-/// harness.
-fn cycles_curve(
-    truth: &Truth,
-    tree: &Value,
-    name: &str,
-    light: LightingMode,
-    setup: &Setup,
-) -> Result<Vec<CurvePoint>> {
+/// The lit scene written as a scene file for the peers, in its own folder of `setup.work`.
+fn lit_scene_file(tree: &Value, name: &str, light: LightingMode, setup: &Setup) -> Result<PathBuf> {
     let folder: PathBuf = setup.work.join(format!("{name}-{}", light.name()));
     std::fs::create_dir_all(&folder).map_err(|e| Error::io(&folder, e))?;
     let scene_file = folder.join(format!("{name}.toml"));
     let text = toml::to_string(tree).map_err(|e| Error::param("chart", e.to_string()))?;
     crate::export::atomic::write_bytes_atomic(&scene_file, text.as_bytes())?;
-    let estimator = light.estimator();
-    let renders = cycles::curve(
-        &scene_file,
-        estimator.name(),
-        setup.cycles_spp,
-        BOUNCES,
-        0.0,
-        &folder,
-    )
-    .map_err(|e| {
+    Ok(scene_file)
+}
+
+/// `peer` on the lit scene file (Cycles at each of `setup.cycles_spp`), each render measured
+/// against the truth: what its times include, and its settings with their measurements (spp
+/// 0 where the peer has no sample count).
+fn peer_series(
+    truth: &Truth,
+    peer: Peer,
+    scene_file: &Path,
+    light: LightingMode,
+    setup: &Setup,
+) -> Result<(String, Vec<(String, CurvePoint)>)> {
+    let folder = scene_file.parent().unwrap_or(setup.work);
+    let request = peers::Request {
+        scene: scene_file,
+        estimator: light.estimator().name(),
+        bounces: BOUNCES,
+        g: 0.0,
+        cycles_spp: setup.cycles_spp,
+        out: folder,
+    };
+    let report = peers::curve(peer, &request).map_err(|e| {
         Error::param(
-            "--cycles-spp",
-            format!("{e} (--no-cycles leaves Cycles out)"),
+            "--peers",
+            format!("{}: {e} (--peers or --no-peers leaves it out)", peer.name()),
         )
     })?;
-    renders
-        .iter()
+    let points = report
+        .points
+        .into_iter()
         .map(|render| {
-            let exr = read_exr(&render.exr)?;
-            let rgb = exr
-                .rgb()
-                .ok_or_else(|| Error::format(&render.exr, "no layer with R, G and B"))?;
-            let rgba: Vec<[f32; 4]> = rgb.iter().map(|c| [c[0], c[1], c[2], 1.0]).collect();
-            let (rel_rmse, rel_bias) = truth.error(&rgba)?;
-            Ok(CurvePoint {
-                spp: render.spp,
+            let (rel_rmse, rel_bias) = truth.exr_error(&render.exr)?;
+            let point = CurvePoint {
+                spp: render.spp.unwrap_or(0),
                 seconds: render.seconds,
                 rel_rmse,
                 rel_bias,
-            })
+            };
+            Ok((render.setting, point))
         })
-        .collect()
+        .collect::<Result<_>>()?;
+    Ok((report.timing, points))
 }
 
-/// The Pareto front among the panel's methods, and each one's speed-up at equal error.
-fn mark(points: &mut [Point], monte_carlo: &[CurvePoint], cycles: &[CurvePoint]) {
+/// The Pareto front among the panel's methods, and each one's (and each peer point's) speed-up
+/// at equal error.
+fn mark(
+    points: &mut [Point],
+    peers: &mut [PeerSeries],
+    monte_carlo: &[CurvePoint],
+    cycles: &[CurvePoint],
+) {
     let pairs: Vec<(f64, f64)> = points.iter().map(|p| (p.seconds, p.rel_rmse)).collect();
     let curve = |c: &[CurvePoint]| Curve {
         points: c.iter().map(|p| (p.spp, p.seconds, p.rel_rmse)).collect(),
@@ -374,6 +447,9 @@ fn mark(points: &mut [Point], monte_carlo: &[CurvePoint], cycles: &[CurvePoint])
             point.cycles_reached = Some(how);
         }
         point.speedup_vs_monte_carlo = mc.time_for(point.rel_rmse).map(|(t, _)| t / point.seconds);
+    }
+    for point in peers.iter_mut().flat_map(|s| s.points.iter_mut()) {
+        point.speedup_vs_cycles = cy.time_for(point.rel_rmse).map(|(t, _)| t / point.seconds);
     }
 }
 

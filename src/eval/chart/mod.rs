@@ -1,10 +1,11 @@
 //! `occlux chart`: speed against accuracy. Every registered method at each of its chart
 //! settings ([`crate::registry::MethodSpec::chart`]: a method joins by registering), Occlux's
-//! Monte Carlo and Cycles at increasing samples per pixel, on each scene under each lighting,
-//! all measured against the path-traced truth of that lighting ([`measure`]). Time: the median
-//! wall time after a warm-up render, from the loaded volume to the image, everything the method
-//! computes on the way included (an AO volume, the GPU upload); Cycles' from scratch, its
-//! volume build included, as a user pays it. Error: relative RMSE and bias over the volume's
+//! Monte Carlo and Cycles at increasing samples per pixel, and the peers a user would pick
+//! instead (VTK, EEVEE: [`crate::eval::peers`]) along their quality axes, on each scene under
+//! each lighting, all measured against the path-traced truth of that lighting ([`measure`]).
+//! Time: the median wall time after a warm-up render, from the loaded volume to the image,
+//! everything the method computes on the way included (an AO volume, the GPU upload); Cycles'
+//! from scratch, its volume build included, as a user pays it; each peer states its own. Error: relative RMSE and bias over the volume's
 //! pixels (DESIGN.md). Writes OUT/chart.json, OUT/chart.csv, OUT/chart.svg and OUT/chart.png
 //! (log time against log error, a panel per scene and lighting, the Pareto front filled,
 //! the path tracers as lines).
@@ -14,6 +15,7 @@ pub mod pareto;
 pub mod plot;
 
 use crate::error::{Error, Result};
+use crate::eval::peers::Peer;
 use crate::export::atomic::write_bytes_atomic;
 use crate::gpu::{Compute, DeviceChoice};
 use crate::progress::Progress;
@@ -43,12 +45,16 @@ pub struct ChartArgs {
     /// Occlux's Monte Carlo curve: its sample counts (at least 2: it states its noise).
     #[arg(long, value_delimiter = ',', default_value = "2,8,32,128")]
     pub mc_spp: Vec<u32>,
-    /// Cycles' curve: its sample counts (through the harness, in the venv of .ci/run).
+    /// The peers beside the methods, each through its Python module in the venv of .ci/run:
+    /// cycles (at --cycles-spp), vtk (its GPU ray caster with volumetric shadows), eevee.
+    #[arg(long, value_delimiter = ',', default_value = "cycles,vtk,eevee")]
+    pub peers: Vec<Peer>,
+    /// Cycles' curve: its sample counts.
     #[arg(long, value_delimiter = ',', default_value = "1,4,16")]
     pub cycles_spp: Vec<u32>,
-    /// Leave Cycles out (no Python with Blender needed).
+    /// Leave every peer out (no Python with Blender needed).
     #[arg(long)]
-    pub no_cycles: bool,
+    pub no_peers: bool,
     /// Timed renders per method setting (median, after one warm-up).
     #[arg(long, default_value_t = 3)]
     pub repeats: usize,
@@ -106,16 +112,13 @@ pub fn run(args: &ChartArgs, quiet: bool) -> Result<()> {
     let panels_total = (args.scenes.len() * args.lightings.len()) as u64;
     let bar = crate::progress::Bar::new(quiet, panels_total, "chart");
     let say = |line: &str| bar.message(line);
-    let cycles_spp: &[u32] = if args.no_cycles {
-        &[]
-    } else {
-        &args.cycles_spp
-    };
+    let peers: &[Peer] = if args.no_peers { &[] } else { &args.peers };
     let setup = Setup {
         compute: &compute,
         reference_spp: args.spp,
         mc_spp: &args.mc_spp,
-        cycles_spp,
+        peers,
+        cycles_spp: &args.cycles_spp,
         repeats: args.repeats,
         work: &work,
         progress: &say,
@@ -149,6 +152,25 @@ pub fn run(args: &ChartArgs, quiet: bool) -> Result<()> {
                 ),
             );
         }
+        for series in &panel.peers {
+            for p in &series.points {
+                crate::progress::say(
+                    quiet,
+                    format_args!(
+                        "{:<12} {:<7} {:<11} {:<40} {:>8.3} s  rel RMSE {:.3} bias {:+.3}{}",
+                        panel.scene,
+                        panel.lighting,
+                        series.peer,
+                        p.setting,
+                        p.seconds,
+                        p.rel_rmse,
+                        p.rel_bias,
+                        p.speedup_vs_cycles
+                            .map_or(String::new(), |s| format!("  {s:.1}x Cycles")),
+                    ),
+                );
+            }
+        }
     }
     let report = Report {
         device: compute.describe(),
@@ -165,7 +187,7 @@ pub fn run(args: &ChartArgs, quiet: bool) -> Result<()> {
     Ok(())
 }
 
-/// One row per method setting and per path-tracer sample count.
+/// One row per method setting, per path-tracer sample count and per peer setting.
 fn csv_text(panels: &[Panel]) -> String {
     let mut text = String::from(
         "scene,lighting,method,setting,spp,seconds,rel_rmse,rel_bias,pareto,speedup_vs_cycles,speedup_vs_monte_carlo\n",
@@ -195,6 +217,21 @@ fn csv_text(panels: &[Panel]) -> String {
                 text += &format!(
                     "{},{},{name},,{},{:.6},{:.6},{:.6},,,\n",
                     panel.scene, panel.lighting, c.spp, c.seconds, c.rel_rmse, c.rel_bias
+                );
+            }
+        }
+        for series in &panel.peers {
+            for p in &series.points {
+                text += &format!(
+                    "{},{},{},\"{}\",,{:.6},{:.6},{:.6},,{},\n",
+                    panel.scene,
+                    panel.lighting,
+                    series.peer.to_lowercase(),
+                    p.setting.replace('"', "\"\""),
+                    p.seconds,
+                    p.rel_rmse,
+                    p.rel_bias,
+                    opt(p.speedup_vs_cycles)
                 );
             }
         }
@@ -229,6 +266,16 @@ fn figure(panels: &[Panel]) -> Vec<plot::Panel> {
                 name: name.to_owned(),
                 points: c.iter().map(|p| (p.seconds, p.rel_rmse)).collect(),
             })
+            .chain(panel.peers.iter().map(|series| {
+                plot::Curve {
+                    name: series.peer.to_owned(),
+                    points: series
+                        .points
+                        .iter()
+                        .map(|p| (p.seconds, p.rel_rmse))
+                        .collect(),
+                }
+            }))
             .collect(),
         })
         .collect()

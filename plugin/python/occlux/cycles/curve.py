@@ -3,15 +3,15 @@ each sample count, each timed from scratch (the volume build included, as a user
 images written as EXR for the chart to measure, and their times as JSON.
 
 ``python -m occlux.cycles.curve SCENE --estimator single --spp 1,4,16 --out DIR`` writes
-DIR/cycles-ESTIMATOR-SPPspp.exr per sample count and DIR/cycles-ESTIMATOR-curve.json:
-``{"scene", "estimator", "bounces", "g", "points": [{"spp", "seconds", "exr"}]}``. (Not imported
-by ``occlux.cycles`` itself, so that ``-m`` runs it cleanly.)
+DIR/cycles-ESTIMATOR-SPPspp.exr per sample count and DIR/cycles-ESTIMATOR-curve.json, the curve
+of every peer of the chart (:mod:`occlux.peers`): ``{"peer", "scene", "estimator", "timing",
+"points": [{"setting", "seconds", "exr", "spp"}], "bounces", "g"}``. (Not imported by
+``occlux.cycles`` itself, so that ``-m`` runs it cleanly.)
 """
 
 from __future__ import annotations
 
 import argparse
-import json
 import os
 import sys
 import time
@@ -20,6 +20,7 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from occlux._occlux import OccluxError, Scene, export
+from occlux.peers.common import write_curve
 
 from .blender import SEQUENCE_LENGTH, bpy_module, build_scene, quiet_stdout
 from .common import CYCLES_FIRST_SEED, DEFAULT_BOUNCES, ESTIMATORS, HarnessError, effective_options
@@ -68,19 +69,10 @@ def render_curve(
         seconds = time.perf_counter() - started
         if result != {"FINISHED"}:
             raise HarnessError(f"Cycles render at {spp} spp ended with {result}")
-        points.append({"spp": spp, "seconds": seconds, "exr": str(exr)})
-    report = {
-        "scene": str(scene_path),
-        "estimator": estimator,
-        "bounces": bounces,
-        "g": g,
-        "points": points,
-    }
-    path = out / f"cycles-{estimator}-curve.json"
-    partial = path.with_suffix(".json.partial")
-    partial.write_text(json.dumps(report, indent=2))
-    partial.replace(path)
-    return report
+        points.append({"setting": f"{spp} spp", "seconds": seconds, "exr": str(exr), "spp": spp})
+    timing = "each render from scratch in one Blender session: the volume build included"
+    extra = {"bounces": bounces, "g": g}
+    return write_curve(out, "cycles", estimator, scene_path, points, timing, extra)
 
 
 def main(argv: Sequence[str] | None = None) -> int:

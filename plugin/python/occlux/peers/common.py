@@ -7,18 +7,20 @@ import json
 import os
 from collections.abc import Sequence
 from pathlib import Path
-from typing import Any, TypedDict
+from typing import Any, NotRequired, TypedDict
 
 ESTIMATORS = ("ambient", "single", "multiple")
 """The lightings of ``occlux chart`` by the estimator of their truth."""
 
 
 class CurvePoint(TypedDict):
-    """One render of a peer: its setting in words, its wall time and its image."""
+    """One render of a peer: its setting in words, its wall time, its image and, for a path
+    tracer, its samples per pixel."""
 
     setting: str
     seconds: float
     exr: str
+    spp: NotRequired[int]
 
 
 def parser(prog: str, description: str) -> argparse.ArgumentParser:
@@ -47,8 +49,8 @@ def write_curve(
     extra: dict[str, Any] | None = None,
 ) -> dict[str, Any]:
     """Writes ``{"peer", "scene", "estimator", "timing", "points": [{"setting", "seconds",
-    "exr"}], ...extra}`` atomically to :func:`curve_path` and returns it. ``timing`` says what
-    the seconds include (the chart shows it)."""
+    "exr", "spp"?}], ...extra}`` atomically to :func:`curve_path` and returns it. ``timing``
+    says what the seconds include (the chart shows it)."""
     report: dict[str, Any] = {
         "peer": peer,
         "scene": str(scene),
