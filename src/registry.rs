@@ -36,6 +36,11 @@ pub struct MethodSpec {
     /// The settings `occlux chart` measures it at: `[render]` keys as TOML ("" for the
     /// defaults), its speed-accuracy trade-offs worth seeing beside the other methods'.
     pub chart: &'static [&'static str],
+    /// The lights its model is for: the chart, the planner and the gallery weigh it only in
+    /// scenes with one of them ([`MethodSpec::weighs`]). AO-shaded DVR renders suns too, but
+    /// only by gradient shading: under suns alone every one of its settings is gradient DVR at
+    /// a higher cost.
+    pub for_lights: &'static [LightKind],
     pub params: &'static [ParamSpec],
 }
 
@@ -177,6 +182,16 @@ impl MethodSpec {
         Method::from_table(table)
     }
 
+    /// Whether the method is worth weighing for `lighting`: a scene lit by emission alone, or
+    /// one with a light of [`MethodSpec::for_lights`].
+    pub fn weighs(&self, lighting: &Lighting) -> bool {
+        lighting.lights.is_empty()
+            || lighting
+                .lights
+                .iter()
+                .any(|l| self.for_lights.contains(&l.kind()))
+    }
+
     /// The lights of `lighting` that the method renders (the background kept).
     pub fn lights_of(&self, lighting: &Lighting) -> Lighting {
         Lighting {
@@ -291,7 +306,10 @@ pub fn describe() -> Value {
 pub fn summary() -> String {
     let mut text = String::new();
     for (spec, defaults) in METHODS.iter().zip(defaults()) {
-        let lights: Vec<&str> = spec.lights.iter().map(|l| l.name()).collect();
+        let names = |kinds: &[LightKind]| -> String {
+            let names: Vec<&str> = kinds.iter().map(|l| l.name()).collect();
+            names.join(", ")
+        };
         let grids = if spec.grids.is_empty() {
             "-".to_owned()
         } else {
@@ -299,8 +317,9 @@ pub fn summary() -> String {
         };
         text += &format!("{}: {}\n", spec.name, spec.summary);
         text += &format!(
-            "  lights {}; layers {}; grids {grids}\n",
-            lights.join(", "),
+            "  lights {} (made for {}); layers {}; grids {grids}\n",
+            names(spec.lights),
+            names(spec.for_lights),
             spec.layers.join(", ")
         );
         for param in spec.params {

@@ -1037,11 +1037,11 @@ fn chart_measures_every_registered_method_and_writes_tables_and_figures() {
     for panel in panels {
         let lighting = panel["lighting"].as_str().unwrap();
         let points = panel["points"].as_array().unwrap();
-        // Every setting of every method that renders this lighting's lights, and no other.
+        // Every setting of every method made for this lighting's lights, and no other.
         for spec in METHODS {
             let takes = match lighting {
-                "ambient" => spec.lights.iter().any(|l| l.name() == "ambient"),
-                _ => spec.lights.iter().any(|l| l.name() == "directional"),
+                "ambient" => spec.for_lights.iter().any(|l| l.name() == "ambient"),
+                _ => spec.for_lights.iter().any(|l| l.name() == "directional"),
             };
             let measured = points.iter().filter(|p| p["method"] == spec.name).count();
             let want = if takes { spec.chart.len() } else { 0 };
@@ -1306,10 +1306,10 @@ fn gallery_shows_every_method_beside_the_truth_with_its_time_and_error() {
         };
         let settings: usize = METHODS
             .iter()
-            .filter(|m| m.lights.iter().any(|l| l.name() == lights))
+            .filter(|m| m.for_lights.iter().any(|l| l.name() == lights))
             .map(|m| m.chart.len())
             .sum();
-        // Every setting that renders the lighting, Monte Carlo, and the truth (no error: it is
+        // Every setting made for the lighting, Monte Carlo, and the truth (no error: it is
         // what the others are measured against).
         assert_eq!(tiles.len(), settings + 2, "{group}");
         for tile in &tiles[..tiles.len() - 1] {

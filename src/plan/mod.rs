@@ -206,14 +206,15 @@ impl Choice {
     }
 }
 
-/// Every registered method at each of its chart settings (`MethodSpec::chart`) that renders
-/// some of `lighting`'s lights (any, in a scene without lights: emission alone): the
+/// Every registered method worth weighing for `lighting` (`MethodSpec::weighs`: one of its
+/// lights is what the method is for; any, in a scene lit by emission alone) at each of its
+/// chart settings (`MethodSpec::chart`): the
 /// configurations the planner weighs (beside Monte Carlo), its validation measures and the
 /// gallery shows.
 pub fn method_candidates(lighting: &Lighting) -> Result<Vec<Choice>> {
     let mut choices = vec![];
     for spec in METHODS {
-        if !lighting.lights.is_empty() && spec.lights_of(lighting).lights.is_empty() {
+        if !spec.weighs(lighting) {
             continue;
         }
         for setting in spec.chart {

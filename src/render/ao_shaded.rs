@@ -6,6 +6,7 @@ use crate::ao::sweep::geometric::{self, GeometricParams};
 use crate::ao::vao::{self, Estimator, FieldKind, VaoParams, MAX_RADIUS};
 use crate::ao::{self as ao_volumes, AoConvention, AoMethod, AoVolumeParams};
 use crate::error::Result;
+use crate::lights::LightKind;
 use crate::registry::{Choice, MethodSpec, ParamKind, ParamSpec, Range, RenderMethod, ALL_LIGHTS};
 use crate::render::raycast::{
     self, AoFactors, GradientShading, RaycastInput, RaycastParams, Shading, ERT_THRESHOLD,
@@ -308,6 +309,7 @@ impl RenderMethod for AoParams {
             "ao_method = \"penner\"\nao_radius = 10",
             "ao_method = \"sweep-physical\"",
         ],
+        for_lights: &[LightKind::Ambient],
         params: &[
             STEP,
             ERT_THRESHOLD,

@@ -389,5 +389,7 @@ def ao_volume(
 
 def methods() -> list[dict[str, Any]]:
     """The rendering methods a scene's ``render.method`` can name (the core's registry): each
-    with ``name``, ``summary``, ``module``, ``shaders``, ``lights``, ``layers``, ``grids`` and
+    with ``name``, ``summary``, ``module``, ``shaders``, ``lights`` (those it renders),
+    ``layers``, ``grids``, ``chart`` (the settings ``occlux chart`` measures), ``for_lights``
+    (the lights its model is for: the chart and the planner weigh it only under one) and
     ``params`` (``key``, ``doc``, ``type``, ``default``, and ``range`` or ``options``)."""

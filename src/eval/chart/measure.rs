@@ -315,14 +315,15 @@ pub fn panel(path: &Path, light: LightingMode, size: u32, setup: &Setup) -> Resu
     })
 }
 
-/// Every registered method at each of its chart settings that renders some of the lights.
+/// Every registered method worth weighing for the lighting (`MethodSpec::weighs`) at each of
+/// its chart settings.
 fn methods(truth: &Truth, name: &str, light: LightingMode, setup: &Setup) -> Result<Vec<Point>> {
     let mut points = vec![];
     for spec in METHODS {
-        let lit = spec.lights_of(&truth.scene.lighting);
-        if lit.lights.is_empty() {
+        if !spec.weighs(&truth.scene.lighting) {
             continue;
         }
+        let lit = spec.lights_of(&truth.scene.lighting);
         for setting in spec.chart {
             (setup.progress)(&format!("{name} {}: {} {setting}", light.name(), spec.name));
             let method: Method = spec.at_setting(setting)?;

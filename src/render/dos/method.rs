@@ -109,6 +109,7 @@ impl RenderMethod for DosParams {
             "theta_deg = 80",
             "theta_deg = 80\nsampling = \"area\"",
         ],
+        for_lights: &[LightKind::Ambient],
         params: &[
             THETA_DEG,
             GRID,

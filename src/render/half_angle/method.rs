@@ -38,6 +38,7 @@ impl RenderMethod for HalfAngleParams {
         layers: &["beauty", "depth", "shadow"],
         grids: &[],
         chart: &[""],
+        for_lights: &[LightKind::Directional],
         params: &[SLICE_DISTANCE, LIGHT_BUFFER, G],
     };
 

@@ -63,6 +63,7 @@ impl RenderMethod for IpsviParams {
         layers: &["beauty", "depth", "shadow"],
         grids: &[],
         chart: &["", "cache_size = 128", "scattering = \"multiple\""],
+        for_lights: &[LightKind::Directional, LightKind::Point],
         params: &[
             CACHE_SIZE,
             LINE_WIDTH,

@@ -147,6 +147,7 @@ impl RenderMethod for UnshadedParams {
         layers: LAYERS,
         grids: &[],
         chart: &[""],
+        for_lights: ALL_LIGHTS,
         params: &MARCH,
     };
 
@@ -171,6 +172,7 @@ impl RenderMethod for GradientParams {
         layers: LAYERS,
         grids: &[],
         chart: &[""],
+        for_lights: ALL_LIGHTS,
         params: &[STEP, ERT_THRESHOLD, SPECULAR, SHININESS, NORMAL_THRESHOLD],
     };
 
