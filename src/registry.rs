@@ -270,6 +270,21 @@ pub trait RenderMethod: Clone + Debug + PartialEq + Default + Serialize + Deseri
     fn grids(&self) -> Vec<&'static str> {
         Vec::new()
     }
+
+    /// The path-traced model these settings approximate, where one exists: its Monte Carlo
+    /// estimator and phase asymmetry g. `occlux chart` measures a method against it beside the
+    /// physical truth of the scene, to tell the method's own error from its model's. None for
+    /// shading heuristics with no such model (gradient shading, the unoccluded ambient term).
+    fn model(&self) -> Option<Model> {
+        None
+    }
+}
+
+/// A path-traced model a method approximates (see [`RenderMethod::model`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Model {
+    pub estimator: crate::render::reference::Estimator,
+    pub g: f32,
 }
 
 /// The method a scene renders with when its `[render]` names none.
@@ -470,6 +485,13 @@ macro_rules! methods {
             pub fn grids(&self) -> Vec<&'static str> {
                 match self {
                     $(Method::$variant(params) => params.grids(),)*
+                }
+            }
+
+            /// The path-traced model these settings approximate ([`RenderMethod::model`]).
+            pub fn model(&self) -> Option<Model> {
+                match self {
+                    $(Method::$variant(params) => params.model(),)*
                 }
             }
 

@@ -1047,6 +1047,24 @@ fn chart_measures_every_registered_method_and_writes_tables_and_figures() {
             let want = if takes { spec.chart.len() } else { 0 };
             assert_eq!(measured, want, "{lighting} {}", spec.name);
         }
+        // Each point against its own model's reference too: the same as the truth where the
+        // model is the lighting's (AO under ambient light, IPSVI's single scattering under the
+        // sun), another reference for the DOS cone, none for gradient shading.
+        for p in points {
+            let (own, truth) = (p["model_rel_rmse"].as_f64(), p["rel_rmse"].as_f64());
+            match (
+                p["method"].as_str().unwrap(),
+                p["setting"].as_str().unwrap(),
+            ) {
+                ("gradient" | "unshaded", _) => assert!(own.is_none(), "{p}"),
+                ("ao", _) | ("ipsvi", "") | ("half-angle", _) => assert_eq!(own, truth, "{p}"),
+                ("dos", _) => {
+                    let own = own.unwrap();
+                    assert!(own.is_finite() && own > 0.0 && own != truth.unwrap(), "{p}");
+                }
+                _ => assert!(own.is_some_and(f64::is_finite), "{p}"),
+            }
+        }
         // The front: each point on it is beaten by no other, each point off it by some other.
         let pairs: Vec<(f64, f64, bool)> = points
             .iter()

@@ -7,7 +7,9 @@ use crate::ao::vao::{self, Estimator, FieldKind, VaoParams, MAX_RADIUS};
 use crate::ao::{self as ao_volumes, AoConvention, AoMethod, AoVolumeParams};
 use crate::error::Result;
 use crate::lights::LightKind;
-use crate::registry::{Choice, MethodSpec, ParamKind, ParamSpec, Range, RenderMethod, ALL_LIGHTS};
+use crate::registry::{
+    Choice, MethodSpec, Model, ParamKind, ParamSpec, Range, RenderMethod, ALL_LIGHTS,
+};
 use crate::render::raycast::{
     self, AoFactors, GradientShading, RaycastInput, RaycastParams, Shading, ERT_THRESHOLD,
     NORMAL_THRESHOLD, SHININESS, SPECULAR, STEP,
@@ -330,6 +332,15 @@ impl RenderMethod for AoParams {
             NORMAL_THRESHOLD,
         ],
     };
+
+    /// Ambient light occluded by the medium's transmittance (the `ambient` reference): what
+    /// the physical sweep computes, and what the other AO volumes stand in for.
+    fn model(&self) -> Option<Model> {
+        Some(Model {
+            estimator: crate::render::reference::Estimator::Ambient,
+            g: 0.0,
+        })
+    }
 
     fn resolve(self) -> Result<Self> {
         let defaults = Self::default();

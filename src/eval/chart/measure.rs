@@ -13,9 +13,11 @@ use crate::eval::peers::{self, Peer};
 use crate::eval::sweep_accuracy::design_error;
 use crate::export::exr::read_exr;
 use crate::gpu::Compute;
+use crate::lights::Lighting;
 use crate::progress::NoProgress;
+use crate::registry::Model;
 use crate::registry::{Method, METHODS};
-use crate::render::reference::{self, Estimator};
+use crate::render::reference::{self, Estimator, ReferenceInput, ReferenceParams};
 use crate::render::MethodInput;
 use crate::scene::Scene;
 use crate::volume::Volume;
@@ -24,7 +26,7 @@ use serde_json::Value;
 use std::path::{Path, PathBuf};
 
 /// Volume bounces of the multiple-scattering lighting (those of the engine's Cycles reference).
-pub const BOUNCES: u32 = 8;
+pub const BOUNCES: u32 = crate::render::reference::DEFAULT_BOUNCES;
 
 /// What light a panel's scene is under, and so which path-traced truth it is measured against.
 #[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq, Serialize)]
@@ -121,6 +123,13 @@ pub struct Point {
     pub seconds: f64,
     pub rel_rmse: f64,
     pub rel_bias: f64,
+    /// The same against the path-traced reference of the method's own model
+    /// ([`crate::registry::RenderMethod::model`]: the DOS cone, single scattering for IPSVI
+    /// under the multiple-scattering lighting), at the truth's samples and seed, under the
+    /// lights the method renders: its error as an approximation, apart from its model's. None
+    /// where the method has no such model (gradient shading, the unoccluded ambient term).
+    pub model_rel_rmse: Option<f64>,
+    pub model_rel_bias: Option<f64>,
     /// On the panel's Pareto front of time against error.
     pub pareto: bool,
     /// Cycles' time to the same error over this point's time, and how Cycles' time was read
@@ -315,9 +324,67 @@ pub fn panel(path: &Path, light: LightingMode, size: u32, setup: &Setup) -> Resu
     })
 }
 
+/// The path-traced references of the methods' own models, each rendered once per panel.
+struct ModelReferences<'a> {
+    truth: &'a Truth<'a>,
+    spp: u32,
+    /// The truth's own model: its estimator with g = 0 under the panel's lights.
+    truth_model: (Model, &'a Lighting),
+    rendered: Vec<(Model, Lighting, Vec<[f32; 3]>)>,
+}
+
+impl ModelReferences<'_> {
+    /// Relative RMSE and bias of `image` against `model` under `lit`, rendering its reference
+    /// the first time it is asked for.
+    fn error(&mut self, image: &[[f32; 4]], model: Model, lit: &Lighting) -> Result<(f64, f64)> {
+        if (model, lit) == self.truth_model {
+            return self.truth.error(image);
+        }
+        let found = self
+            .rendered
+            .iter()
+            .position(|(m, l, _)| *m == model && l == lit);
+        let index = match found {
+            Some(index) => index,
+            None => {
+                let params = ReferenceParams {
+                    estimator: model.estimator,
+                    spp: self.spp,
+                    seed: 1,
+                    g: model.g,
+                };
+                let input = ReferenceInput {
+                    volume: self.truth.volume,
+                    lut: self.truth.lut,
+                    camera: &self.truth.scene.camera,
+                    lighting: lit,
+                    params: &params,
+                };
+                let image = reference::render(&input, &NoProgress)?;
+                let mean = image.mean.iter().map(|m| [m[0], m[1], m[2]]).collect();
+                self.rendered.push((model, lit.clone(), mean));
+                self.rendered.len() - 1
+            }
+        };
+        let mean = &self.rendered[index].2;
+        let (_, rmse, bias, _) = design_error(image, mean, None, self.truth.background)?;
+        Ok((rmse, bias))
+    }
+}
+
 /// Every registered method worth weighing for the lighting (`MethodSpec::weighs`) at each of
-/// its chart settings.
+/// its chart settings, against the truth and against its own model's reference.
 fn methods(truth: &Truth, name: &str, light: LightingMode, setup: &Setup) -> Result<Vec<Point>> {
+    let truth_model = Model {
+        estimator: light.estimator(),
+        g: 0.0,
+    };
+    let mut models = ModelReferences {
+        truth,
+        spp: setup.reference_spp,
+        truth_model: (truth_model, &truth.scene.lighting),
+        rendered: vec![],
+    };
     let mut points = vec![];
     for spec in METHODS {
         if !spec.weighs(&truth.scene.lighting) {
@@ -338,6 +405,18 @@ fn methods(truth: &Truth, name: &str, light: LightingMode, setup: &Setup) -> Res
             };
             let (timing, rendered) = timed_keeping(setup.repeats, || method.render(&input))?;
             let (rel_rmse, rel_bias) = truth.error(&rendered.image.rgba)?;
+            let (model_rel_rmse, model_rel_bias) = match method.model() {
+                Some(model) => {
+                    (setup.progress)(&format!(
+                        "{name} {}: the reference of {} {setting}",
+                        light.name(),
+                        spec.name
+                    ));
+                    let (rmse, bias) = models.error(&rendered.image.rgba, model, &lit)?;
+                    (Some(rmse), Some(bias))
+                }
+                None => (None, None),
+            };
             points.push(Point {
                 scene: name.to_owned(),
                 lighting: light.name(),
@@ -347,6 +426,8 @@ fn methods(truth: &Truth, name: &str, light: LightingMode, setup: &Setup) -> Res
                 seconds: timing.median_ms / 1e3,
                 rel_rmse,
                 rel_bias,
+                model_rel_rmse,
+                model_rel_bias,
                 pareto: false,
                 speedup_vs_cycles: None,
                 cycles_reached: None,

@@ -136,7 +136,7 @@ pub fn run(args: &ChartArgs, quiet: bool) -> Result<()> {
             crate::progress::say(
                 quiet,
                 format_args!(
-                    "{:<12} {:<7} {:<11} {:<40} {:>8.3} s  rel RMSE {:.3} bias {:+.3}{}{}",
+                    "{:<12} {:<7} {:<11} {:<40} {:>8.3} s  rel RMSE {:.3} bias {:+.3}{}{}{}",
                     panel.scene,
                     panel.lighting,
                     p.method,
@@ -144,6 +144,8 @@ pub fn run(args: &ChartArgs, quiet: bool) -> Result<()> {
                     p.seconds,
                     p.rel_rmse,
                     p.rel_bias,
+                    p.model_rel_rmse
+                        .map_or(String::new(), |e| format!(" (own model {e:.3})")),
                     if p.pareto { "  (front)" } else { "" },
                     p.speedup_vs_cycles.map_or(String::new(), |s| {
                         let first = p.cycles_reached == Some(pareto::Reached::FirstSample);
@@ -190,13 +192,13 @@ pub fn run(args: &ChartArgs, quiet: bool) -> Result<()> {
 /// One row per method setting, per path-tracer sample count and per peer setting.
 fn csv_text(panels: &[Panel]) -> String {
     let mut text = String::from(
-        "scene,lighting,method,setting,spp,seconds,rel_rmse,rel_bias,pareto,speedup_vs_cycles,speedup_vs_monte_carlo\n",
+        "scene,lighting,method,setting,spp,seconds,rel_rmse,rel_bias,pareto,speedup_vs_cycles,speedup_vs_monte_carlo,model_rel_rmse,model_rel_bias\n",
     );
     let opt = |v: Option<f64>| v.map_or(String::new(), |v| format!("{v:.4}"));
     for panel in panels {
         for p in &panel.points {
             text += &format!(
-                "{},{},{},\"{}\",,{:.6},{:.6},{:.6},{},{},{}\n",
+                "{},{},{},\"{}\",,{:.6},{:.6},{:.6},{},{},{},{},{}\n",
                 panel.scene,
                 panel.lighting,
                 p.method,
@@ -206,7 +208,9 @@ fn csv_text(panels: &[Panel]) -> String {
                 p.rel_bias,
                 p.pareto,
                 opt(p.speedup_vs_cycles),
-                opt(p.speedup_vs_monte_carlo)
+                opt(p.speedup_vs_monte_carlo),
+                opt(p.model_rel_rmse),
+                opt(p.model_rel_bias)
             );
         }
         for (name, curve) in [
@@ -215,7 +219,7 @@ fn csv_text(panels: &[Panel]) -> String {
         ] {
             for c in curve.iter() {
                 text += &format!(
-                    "{},{},{name},,{},{:.6},{:.6},{:.6},,,\n",
+                    "{},{},{name},,{},{:.6},{:.6},{:.6},,,,,\n",
                     panel.scene, panel.lighting, c.spp, c.seconds, c.rel_rmse, c.rel_bias
                 );
             }
@@ -223,7 +227,7 @@ fn csv_text(panels: &[Panel]) -> String {
         for series in &panel.peers {
             for p in &series.points {
                 text += &format!(
-                    "{},{},{},\"{}\",,{:.6},{:.6},{:.6},,{},\n",
+                    "{},{},{},\"{}\",,{:.6},{:.6},{:.6},,{},,,\n",
                     panel.scene,
                     panel.lighting,
                     series.peer.to_lowercase(),

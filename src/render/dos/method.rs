@@ -3,7 +3,8 @@
 use super::{ClipPlane, DosInput, DosParams, MAX_CLIP_PLANES, MAX_GRID};
 use crate::error::{Error, Result};
 use crate::lights::LightKind;
-use crate::registry::{Choice, MethodSpec, ParamKind, ParamSpec, Range, RenderMethod};
+use crate::registry::{Choice, MethodSpec, Model, ParamKind, ParamSpec, Range, RenderMethod};
+use crate::render::reference::Estimator;
 use crate::render::{MethodInput, Rendered};
 
 pub const THETA_DEG: ParamSpec = ParamSpec {
@@ -121,6 +122,17 @@ impl RenderMethod for DosParams {
             CLIP_PLANES,
         ],
     };
+
+    /// Ambient light through the cone of half-angle theta towards the viewer (the `cone`
+    /// reference).
+    fn model(&self) -> Option<Model> {
+        Some(Model {
+            estimator: Estimator::Cone {
+                aperture: self.theta_deg.to_radians(),
+            },
+            g: 0.0,
+        })
+    }
 
     /// Normalises the clipping planes' normals, then validates.
     fn resolve(mut self) -> Result<Self> {

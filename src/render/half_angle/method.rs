@@ -3,8 +3,9 @@
 use super::{HalfAngleInput, HalfAngleParams};
 use crate::error::Result;
 use crate::lights::LightKind;
-use crate::registry::{MethodSpec, ParamKind, ParamSpec, Range, RenderMethod};
+use crate::registry::{MethodSpec, Model, ParamKind, ParamSpec, Range, RenderMethod};
 use crate::render::reference::phase::G;
+use crate::render::reference::Estimator;
 use crate::render::{MethodInput, Rendered};
 
 pub const SLICE_DISTANCE: ParamSpec = ParamSpec {
@@ -41,6 +42,14 @@ impl RenderMethod for HalfAngleParams {
         for_lights: &[LightKind::Directional],
         params: &[SLICE_DISTANCE, LIGHT_BUFFER, G],
     };
+
+    /// Single scattering with shadows, with its phase asymmetry.
+    fn model(&self) -> Option<Model> {
+        Some(Model {
+            estimator: Estimator::Single,
+            g: self.g,
+        })
+    }
 
     fn resolve(self) -> Result<Self> {
         self.validate()?;

@@ -1,11 +1,12 @@
 //! IPSVI as a scene method: its `[render]` keys, ranges and registry entry.
 
-use super::{IpsviInput, IpsviParams, MAX_CACHE_SIZE};
+use super::{IpsviInput, IpsviParams, Scattering, MAX_CACHE_SIZE};
 use crate::error::Result;
 use crate::lights::LightKind;
-use crate::registry::{Choice, MethodSpec, ParamKind, ParamSpec, Range, RenderMethod};
+use crate::registry::{Choice, MethodSpec, Model, ParamKind, ParamSpec, Range, RenderMethod};
 use crate::render::raycast::{ERT_THRESHOLD, STEP};
 use crate::render::reference::phase::G;
+use crate::render::reference::Estimator;
 use crate::render::{MethodInput, Rendered};
 
 pub const CACHE_SIZE: ParamSpec = ParamSpec {
@@ -74,6 +75,20 @@ impl RenderMethod for IpsviParams {
             ERT_THRESHOLD,
         ],
     };
+
+    /// Single scattering with shadows, or multiple scattering, with its phase asymmetry.
+    fn model(&self) -> Option<Model> {
+        let estimator = match self.scattering {
+            Scattering::Single => Estimator::Single,
+            Scattering::Multiple => Estimator::Multiple {
+                bounces: crate::render::reference::DEFAULT_BOUNCES,
+            },
+        };
+        Some(Model {
+            estimator,
+            g: self.g,
+        })
+    }
 
     fn resolve(self) -> Result<Self> {
         self.validate()?;

@@ -68,6 +68,10 @@ impl Estimator {
     }
 }
 
+/// Volume bounces of the `multiple` estimator unless told otherwise (`occlux reference`,
+/// the chart's multiple-scattering lighting, the Cycles harness's DEFAULT_BOUNCES).
+pub const DEFAULT_BOUNCES: u32 = 8;
+
 /// Most samples per pixel accepted, and most bounces.
 pub const MAX_SPP: u32 = 1 << 20;
 pub const MAX_BOUNCES: u32 = 1024;
