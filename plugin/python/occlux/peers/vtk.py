@@ -86,8 +86,9 @@ def vtk_modules() -> dict[str, Any]:
     OpenGL on a machine without a display) unless the environment chose another window."""
     os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkEGLRenderWindow")
     try:
-        import vtkmodules.vtkRenderingOpenGL2  # noqa: F401  (registers the OpenGL classes)
+        import vtkmodules.vtkRenderingOpenGL2
         import vtkmodules.vtkRenderingVolumeOpenGL2  # noqa: F401
+        from vtkmodules.util.numpy_support import numpy_to_vtk, vtk_to_numpy
         from vtkmodules.vtkCommonCore import VTK_FLOAT, vtkFloatArray, vtkVersion
         from vtkmodules.vtkCommonDataModel import vtkImageData, vtkPiecewiseFunction
         from vtkmodules.vtkRenderingCore import (
@@ -99,7 +100,6 @@ def vtk_modules() -> dict[str, Any]:
             vtkVolumeProperty,
         )
         from vtkmodules.vtkRenderingVolumeOpenGL2 import vtkOpenGLGPUVolumeRayCastMapper
-        from vtkmodules.util.numpy_support import numpy_to_vtk, vtk_to_numpy
     except ImportError as e:
         raise VtkPeerError(f"the VTK peer needs VTK 9.x: pip install vtk==9.7.2 ({e})") from e
     return {
