@@ -15,7 +15,7 @@ import numpy as np
 import occlux
 import pytest
 from occlux.peers import vtk as peer
-from occlux_testing import REPO, oiio_read
+from occlux_testing import REPO, oiio_read, run_occlux
 
 BACKGROUND = 0.05
 AMBIENT = '[[lights]]\ntype = "ambient"\nradiance = [0.5, 0.6, 0.7]'
@@ -197,3 +197,30 @@ def test_cli_refuses_what_vtk_cannot_render(tmp_path: Path) -> None:
     result = run_cli(str(unlit), "--estimator", "single", "--out", str(tmp_path / "b"))
     assert result.returncode == 2
     assert "needs a sun or a lamp" in result.stderr
+
+
+def test_the_chart_runs_vtk_beside_the_methods(tmp_path: Path, monkeypatch) -> None:
+    """`occlux chart --peers vtk`: VTK's settings as a series of the panel, each measured
+    against the chart's truth (finer steps closer to it, shadows off far from it), with its
+    speed-up left out (no Cycles curve here), in the CSV and the figure."""
+    monkeypatch.setenv("OCCLUX_PYTHON", sys.executable)
+    scene = tmp_path / "sun.toml"
+    scene.write_text(scene_toml(SUN))
+    out = tmp_path / "chart"
+    run_occlux(
+        "chart", "--scenes", str(scene), "--lightings", "sun", "--size", "32", "--spp", "1024",
+        "--mc-spp", "2,8", "--peers", "vtk", "--repeats", "1", "-o", str(out),
+    )  # fmt: skip
+    (panel,) = json.loads((out / "chart.json").read_text())["panels"]
+    assert panel["cycles"] == []
+    (series,) = panel["peers"]
+    assert series["peer"] == "VTK" and "render" in series["timing"]
+    errors = {p["setting"]: p["rel_rmse"] for p in series["points"]}
+    on = [e for s, e in errors.items() if "shadows on" in s]
+    (off,) = [e for s, e in errors.items() if "shadows off" in s]
+    assert len(on) >= 2 and all(np.isfinite(on)), errors
+    assert on[-1] < on[0] and off > 2 * on[-1], errors
+    assert all(p["speedup_vs_cycles"] is None for p in series["points"])
+    rows = (out / "chart.csv").read_text().splitlines()[1:]
+    assert sum(row.split(",")[2] == "vtk" for row in rows) == len(errors)
+    assert "VTK" in (out / "chart.svg").read_text()
