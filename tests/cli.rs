@@ -1100,6 +1100,31 @@ fn chart_measures_every_registered_method_and_writes_tables_and_figures() {
     let lines: Vec<&str> = csv.lines().collect();
     assert!(lines[0].starts_with("scene,lighting,method,setting,spp,seconds,rel_rmse"));
     assert_eq!(lines.len(), 1 + rows);
+    // The equal-error table: per panel a heading and a row per measured method (its most
+    // accurate setting), the most accurate first.
+    let table = std::fs::read_to_string(out.join("chart.md")).unwrap();
+    for panel in panels {
+        let heading = format!("### demo, {} (truth", panel["lighting"].as_str().unwrap());
+        let section = table.split(&heading).nth(1).expect(&heading);
+        let section = section.split("###").next().unwrap();
+        let rows: Vec<&str> = section
+            .lines()
+            .filter(|l| l.starts_with("| ") && !l.starts_with("| method"))
+            .collect();
+        let mut methods: Vec<&str> = panel["points"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|p| p["method"].as_str().unwrap())
+            .collect();
+        methods.dedup();
+        assert_eq!(rows.len(), methods.len(), "{section}");
+        let errors: Vec<f64> = rows
+            .iter()
+            .map(|r| r.split(" | ").nth(2).unwrap().parse().unwrap())
+            .collect();
+        assert!(errors.windows(2).all(|w| w[0] <= w[1]), "{section}");
+    }
     // The figure: a panel title per panel in the SVG, and a PNG of the SVG's size.
     let svg = std::fs::read_to_string(out.join("chart.svg")).unwrap();
     assert!(svg.contains("demo, ambient") && svg.contains("demo, sun"));

@@ -159,6 +159,8 @@ pub struct PeerPoint {
     pub rel_bias: f64,
     /// Cycles' time to the same error over this point's time (None without a Cycles curve).
     pub speedup_vs_cycles: Option<f64>,
+    /// The same against Occlux's own Monte Carlo.
+    pub speedup_vs_monte_carlo: Option<f64>,
 }
 
 /// A peer renderer along its quality axis.
@@ -302,6 +304,7 @@ pub fn panel(path: &Path, light: LightingMode, size: u32, setup: &Setup) -> Resu
                     rel_rmse: p.rel_rmse,
                     rel_bias: p.rel_bias,
                     speedup_vs_cycles: None,
+                    speedup_vs_monte_carlo: None,
                 })
                 .collect();
             peers.push(PeerSeries {
@@ -532,6 +535,7 @@ fn mark(
     }
     for point in peers.iter_mut().flat_map(|s| s.points.iter_mut()) {
         point.speedup_vs_cycles = cy.time_for(point.rel_rmse).map(|(t, _)| t / point.seconds);
+        point.speedup_vs_monte_carlo = mc.time_for(point.rel_rmse).map(|(t, _)| t / point.seconds);
     }
 }
 

@@ -6,13 +6,14 @@
 //! Time: the median wall time after a warm-up render, from the loaded volume to the image,
 //! everything the method computes on the way included (an AO volume, the GPU upload); Cycles'
 //! from scratch, its volume build included, as a user pays it; each peer states its own. Error: relative RMSE and bias over the volume's
-//! pixels (DESIGN.md). Writes OUT/chart.json, OUT/chart.csv, OUT/chart.svg and OUT/chart.png
-//! (log time against log error, a panel per scene and lighting, the Pareto front filled,
-//! the path tracers as lines).
+//! pixels (DESIGN.md). Writes OUT/chart.json, OUT/chart.csv, OUT/chart.md (the equal-error
+//! table: [`table`]), OUT/chart.svg and OUT/chart.png (log time against log error, a panel per
+//! scene and lighting, the Pareto front filled, the path tracers and peers as lines).
 
 pub mod measure;
 pub mod pareto;
 pub mod plot;
+pub mod table;
 
 use crate::error::{Error, Result};
 use crate::eval::peers::Peer;
@@ -183,9 +184,11 @@ pub fn run(args: &ChartArgs, quiet: bool) -> Result<()> {
     super::write_report(&args.out.join("chart.json"), &report, quiet)?;
     let csv = args.out.join("chart.csv");
     write_bytes_atomic(&csv, csv_text(&panels).as_bytes())?;
+    let markdown = args.out.join("chart.md");
+    write_bytes_atomic(&markdown, table::markdown(&panels).as_bytes())?;
     let (svg, png) = (args.out.join("chart.svg"), args.out.join("chart.png"));
     plot::write_charts(&figure(&panels), &svg, &png)?;
-    crate::progress::report_written(&[csv, svg, png], quiet);
+    crate::progress::report_written(&[csv, markdown, svg, png], quiet);
     Ok(())
 }
 
@@ -227,7 +230,7 @@ fn csv_text(panels: &[Panel]) -> String {
         for series in &panel.peers {
             for p in &series.points {
                 text += &format!(
-                    "{},{},{},\"{}\",,{:.6},{:.6},{:.6},,{},,,\n",
+                    "{},{},{},\"{}\",,{:.6},{:.6},{:.6},,{},{},,\n",
                     panel.scene,
                     panel.lighting,
                     series.peer.to_lowercase(),
@@ -235,7 +238,8 @@ fn csv_text(panels: &[Panel]) -> String {
                     p.seconds,
                     p.rel_rmse,
                     p.rel_bias,
-                    opt(p.speedup_vs_cycles)
+                    opt(p.speedup_vs_cycles),
+                    opt(p.speedup_vs_monte_carlo)
                 );
             }
         }
