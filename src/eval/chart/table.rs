@@ -20,11 +20,7 @@ struct Row {
 }
 
 /// The least-error item of each group of `items` (grouped by `key`, in first-seen order).
-fn best_of<'a, T>(
-    items: &'a [T],
-    key: impl Fn(&T) -> &str,
-    error: impl Fn(&T) -> f64,
-) -> Vec<&'a T> {
+fn best_of<T>(items: &[T], key: impl Fn(&T) -> &str, error: impl Fn(&T) -> f64) -> Vec<&T> {
     let mut best: Vec<&T> = vec![];
     for item in items {
         match best.iter_mut().find(|b| key(b) == key(item)) {
