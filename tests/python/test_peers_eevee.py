@@ -80,7 +80,10 @@ def run(tmp_path_factory) -> dict:
     with pytest.MonkeyPatch.context() as patch:
         patch.setenv("XDG_RUNTIME_DIR", "/tmp")
         patch.setattr(eevee, "LADDER", TEST_LADDER)
-        code = eevee.main([str(scene), "--estimator", "single", "--out", str(out)])
+        ladder = ",".join(q.name for q in TEST_LADDER)
+        code = eevee.main(
+            [str(scene), "--estimator", "single", "--out", str(out), "--ladder", ladder]
+        )
     assert code == 0
     truth = occlux.reference(occlux.Scene.load(scene), "single", spp=REFERENCE_SPP, seed=3)
     return {
@@ -181,3 +184,15 @@ def test_a_scene_it_cannot_map_exits_2(tmp_path, case):
     assert result.returncode == 2, result.stderr
     assert "error:" in result.stderr and message in result.stderr, result.stderr
     assert not (tmp_path / "o" / "eevee-single-curve.json").exists()
+
+
+def test_an_unknown_setting_is_named(tmp_path: Path, capsys) -> None:
+    """``--ladder`` names settings of LADDER; another name is exit 2, naming the known ones,
+    before anything is built."""
+    scene = tmp_path / "phantom-sun.toml"
+    scene.write_text(PHANTOM_SUN)
+    code = eevee.main([str(scene), "--out", str(tmp_path / "out"), "--ladder", "coarse,ultra"])
+    assert code == 2
+    err = capsys.readouterr().err
+    assert "ultra" in err and "finest" in err, err
+    assert not (tmp_path / "out").exists()

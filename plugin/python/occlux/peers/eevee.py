@@ -79,12 +79,29 @@ LADDER: tuple[Quality, ...] = (
     Quality("fine", "2", 128, 32, 16),
     Quality("finest", "1", 256, 64, 32),
 )
-"""EEVEE's quality axis, cheap to best. Froxels are sized in pixels, so what a setting resolves
-depends on the image: at the chart's 128^2 an 8-pixel froxel is 1/16 of the image (Blender's
-default), a 1-pixel one Occlux's resolution. Blender's default render samples (64) are beyond
-the ladder: on llvmpipe every sample re-renders the shadow maps (about 2 s at 32^2). A 16-pixel
-froxel with one sample rendered nothing at all on a 32^2 image (measured), so the ladder starts
-at 8 pixels and 2 samples."""
+"""EEVEE's quality axis, cheap to best (``--ladder`` picks settings by name). Froxels are sized in
+pixels, so what a setting resolves depends on the image: at the chart's 128^2 an 8-pixel froxel
+is 1/16 of the image (Blender's default), a 1-pixel one Occlux's resolution. Blender's default
+render samples (64) are beyond the ladder: on llvmpipe every sample re-renders the shadow maps
+(about 2 s at 32^2). A 16-pixel froxel with one sample rendered nothing at all on a 32^2 image
+(measured), so the ladder starts at 8 pixels and 2 samples."""
+
+DEFAULT_LADDER = ("coarse", "medium", "fine")
+"""The settings rendered unless ``--ladder`` names others: "finest" (1-pixel froxels, 32
+samples) takes about five minutes per render at 128^2 on llvmpipe, too long for a chart of many
+scenes; ask for it by name."""
+
+
+def ladder_of(names: Sequence[str]) -> tuple[Quality, ...]:
+    """The settings of :data:`LADDER` called ``names``, in the ladder's order."""
+    known = {q.name for q in LADDER}
+    unknown = [n for n in names if n not in known]
+    if unknown or not names:
+        raise HarnessError(
+            f"unknown EEVEE settings {unknown or list(names)}; known: {', '.join(sorted(known))}"
+        )
+    return tuple(q for q in LADDER if q.name in names)
+
 
 DEPTH_MARGIN = 0.01
 """The froxel grid spans the volume's box in depth, widened by this fraction on each side so that
@@ -230,8 +247,8 @@ def render_curve(
     ladder: Sequence[Quality] | None = None,
     repeats: int = 3,
 ) -> dict[str, Any]:
-    """Renders the scene with EEVEE at each setting of ``ladder`` (cheap to best; :data:`LADDER`
-    unless given, read at call time) and writes the
+    """Renders the scene with EEVEE at each setting of ``ladder`` (cheap to best; those of
+    DEFAULT_LADDER unless given) and writes the
     images and the curve JSON into ``out`` (see the module docs); returns what the JSON holds.
 
     The volume is written to a temporary VDB, the Blender scene built once, then one warm-up
@@ -240,7 +257,7 @@ def render_curve(
     REPEAT_BELOW_S, else once, and timed by the median; every render redoes what an EEVEE final
     render does (its render engine, the volume's froxel grid, the lights, every TAA sample,
     writing the EXR), nothing of the scene is rebuilt between them."""
-    ladder = LADDER if ladder is None else ladder
+    ladder = ladder_of(DEFAULT_LADDER) if ladder is None else ladder
     if not ladder:
         raise HarnessError("the quality ladder is empty")
     if repeats < 1:
@@ -306,13 +323,22 @@ def _device(bpy) -> str:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    args = parser(
+    p = parser(
         "python -m occlux.peers.eevee",
         "Render an Occlux scene with Blender's EEVEE at several quality settings "
         "(a peer series of occlux chart).",
-    ).parse_args(argv)
+    )
+    p.add_argument(
+        "--ladder",
+        default=",".join(DEFAULT_LADDER),
+        help=f"settings, comma-separated, of: {', '.join(q.name for q in LADDER)}",
+    )
+    args = p.parse_args(argv)
     try:
-        report = render_curve(args.scene, args.estimator, args.out, args.bounces, args.g)
+        ladder = ladder_of(args.ladder.split(","))
+        report = render_curve(
+            args.scene, args.estimator, args.out, args.bounces, args.g, ladder=ladder
+        )
     except OccluxError as e:
         print(f"error: {e}", file=sys.stderr)
         return 2
