@@ -172,11 +172,13 @@ def _light_objects(bpy, lights: Sequence[LightSpec]) -> list:
     return objects
 
 
-def cycles_settings(scene, bounces: int) -> None:
-    """Sets `scene` up for unbiased, unfiltered, undenoised path tracing on the CPU with
-    `bounces` volume bounces, into a linear 32-bit EXR."""
+def linear_exr_output(scene) -> None:
+    """Sets `scene`'s output to the full image as a linear 32-bit RGB EXR: opaque film, the
+    film filter (EEVEE's and Workbench's; Cycles has its own) at 0.01 pixel, no border, no
+    motion blur, square pixels, and the Standard view transform with no look, exposure or gamma,
+    so that the file holds the renderer's radiance as it is. Shared by Cycles and the EEVEE peer
+    of ``occlux chart`` (``occlux.peers.eevee``)."""
     render = scene.render
-    render.engine = "CYCLES"
     render.film_transparent = False
     render.filter_size = 0.01
     render.resolution_percentage = 100
@@ -191,6 +193,13 @@ def cycles_settings(scene, bounces: int) -> None:
     scene.view_settings.look = "None"
     scene.view_settings.exposure = 0.0
     scene.view_settings.gamma = 1.0
+
+
+def cycles_settings(scene, bounces: int) -> None:
+    """Sets `scene` up for unbiased, unfiltered, undenoised path tracing on the CPU with
+    `bounces` volume bounces, into a linear 32-bit EXR."""
+    scene.render.engine = "CYCLES"
+    linear_exr_output(scene)
     c = scene.cycles
     c.device = "CPU"
     c.samples = SEQUENCE_LENGTH
@@ -232,6 +241,24 @@ def build_scene(
     volume bounces for "multiple" (0 for the others); ``g`` the Henyey-Greenstein asymmetry for
     "single" and "multiple" ("ambient" is isotropic). ``volume`` is the scene's placed volume if
     it is already loaded (else the scene loads it). Data made by a previous build is removed."""
+    built, _ = build_blender_scene(scene, vdb_path, estimator, bounces, g, volume=volume)
+    cycles_settings(built, effective_options(estimator, bounces, g)[0])
+    return built
+
+
+def build_blender_scene(
+    scene: str | os.PathLike[str] | Scene,
+    vdb_path: str | os.PathLike[str],
+    estimator: str,
+    bounces: int = 0,
+    g: float = 0.0,
+    *,
+    volume: Volume | None = None,
+) -> tuple[Any, SceneSpec]:
+    """:func:`build_scene` without a render engine's settings: the volume, material, camera,
+    lights and world of ``estimator``, at the camera's resolution. Returns the Blender scene and
+    the :class:`.scene.SceneSpec` it was built from (for a renderer that needs more of the scene,
+    such as EEVEE's volume range, ``occlux.peers.eevee``)."""
     check_estimator(estimator)
     if not -1.0 < g < 1.0:
         raise HarnessError(f"g must be in (-1, 1), got {g}")
@@ -265,8 +292,7 @@ def build_scene(
     scene.world = make_world(bpy, environment, spec.background)
     for light in _light_objects(bpy, lights):
         scene.collection.objects.link(light)
-    cycles_settings(scene, bounces)
-    return scene
+    return scene, spec
 
 
 def camera_frustum(scene) -> dict[str, Any]:
