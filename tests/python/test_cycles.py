@@ -649,3 +649,20 @@ def test_the_chart_runs_cycles_beside_the_methods(tmp_path, monkeypatch):
     csv = (out / "chart.csv").read_text().splitlines()
     assert sum(line.split(",")[2] == "cycles" for line in csv[1:]) == 2
     assert "Cycles" in (out / "chart.svg").read_text()
+
+
+def test_the_harness_settles_a_framed_camera_as_occlux_renders_it():
+    """A camera with no position frames the visible content once the volume is loaded; the
+    harness (and so Cycles, the chart's Cycles curve and EEVEE) must take that camera, as
+    ``occlux render`` and ``occlux.reference`` do, not the one framed on the bare box."""
+    from occlux.cycles.scene import load_scene
+
+    framed = TINY_SUN.replace("position = [2.4, -2.6, 1.4]", "direction = [1, -1, 0.5]")
+    scene = occlux.Scene.from_toml(framed)
+    unsettled = occlux.Scene.from_toml(framed).describe()["camera"]["position"]
+    spec = load_scene(scene)
+    settled = occlux.Scene.from_toml(framed)
+    settled.settle()
+    want = settled.describe()["camera"]["position"]
+    assert np.allclose(spec.camera.position, want, atol=1e-5), (spec.camera.position, want)
+    assert not np.allclose(unsettled, want, atol=1e-3), "the framing did not depend on the data"

@@ -239,8 +239,9 @@ def build_scene(
     :func:`render_scene`). The volume is the ``value`` grid of ``vdb_path`` (from
     ``occlux.export``, or ``occlux.write_vdb`` of the scene's volume). ``bounces`` is Cycles'
     volume bounces for "multiple" (0 for the others); ``g`` the Henyey-Greenstein asymmetry for
-    "single" and "multiple" ("ambient" is isotropic). ``volume`` is the scene's placed volume if
-    it is already loaded (else the scene loads it). Data made by a previous build is removed."""
+    "single" and "multiple" ("ambient" is isotropic). ``volume`` is the scene's volume if the
+    caller has settled the same ``occlux.Scene`` (else the scene is settled here:
+    :func:`.scene.load_scene`). Data made by a previous build is removed."""
     built, _ = build_blender_scene(scene, vdb_path, estimator, bounces, g, volume=volume)
     cycles_settings(built, effective_options(estimator, bounces, g)[0])
     return built

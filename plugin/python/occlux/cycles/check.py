@@ -53,7 +53,7 @@ def check(
     bounces, g = effective_options(estimator, bounces, g)
     stem = scene_path.stem
     scene = Scene.load(scene_path)
-    volume = scene.load_volume()
+    volume, _ = scene.settle()
     with warnings.catch_warnings():
         # "auto" falls back to the CPU with a RuntimeWarning; the render is not what is checked.
         warnings.simplefilter("ignore", RuntimeWarning)
@@ -71,7 +71,7 @@ def check(
     )  # fmt: skip
     occlux = read_reference(out / f"{name}.exr")
     vdb = out / f"{stem}.vdb"
-    blender_scene = build_scene(scene_path, vdb, estimator, bounces, g, volume=volume)
+    blender_scene = build_scene(scene, vdb, estimator, bounces, g, volume=volume)
     check_camera(blender_scene, occlux.camera)
     cycles = render_scene(blender_scene, spp, seeds)
     report = compare(occlux, cycles.mean, cycles.stderr)

@@ -44,13 +44,13 @@ def render_curve(
     out.mkdir(parents=True, exist_ok=True)
     bounces, g = effective_options(estimator, bounces, g)
     scene = Scene.load(scene_path)
-    volume = scene.load_volume()
+    volume, _ = scene.settle()
     with warnings.catch_warnings():
         # "auto" falls back to the CPU with a RuntimeWarning; only the grids are wanted here.
         warnings.simplefilter("ignore", RuntimeWarning)
         export(scene, out, stem=scene_path.stem, volume=volume)
     blender_scene = build_scene(
-        scene_path, out / f"{scene_path.stem}.vdb", estimator, bounces, g, volume=volume
+        scene, out / f"{scene_path.stem}.vdb", estimator, bounces, g, volume=volume
     )
     bpy = bpy_module()
     c = blender_scene.cycles

@@ -154,13 +154,15 @@ def core_scene(scene: str | os.PathLike[str] | Scene) -> tuple[Scene, Path | Non
 
 def load_scene(scene: str | os.PathLike[str] | Scene, volume: Volume | None = None) -> SceneSpec:
     """What Cycles needs of a scene: a scene file (validated by the core) or an
-    ``occlux.Scene`` (e.g. from :meth:`occlux.Scene.from_dict`). ``volume`` is the scene's
-    placed volume if it is already loaded (:meth:`occlux.Scene.load_volume`)."""
+    ``occlux.Scene`` (e.g. from :meth:`occlux.Scene.from_dict`), settled as ``occlux render``
+    settles it (:meth:`occlux.Scene.settle`: the content centred, the camera framed on it), so
+    that Cycles sees the volume where Occlux renders it. ``volume`` is the scene's volume if the
+    caller has settled the same ``occlux.Scene`` already (then pass that object, not a path)."""
     core, path = core_scene(scene)
     label = str(path) if path is not None else "the scene"
-    described = core.describe()
     if volume is None:
-        volume = core.load_volume()
+        volume, _ = core.settle()
+    described = core.describe()
     ambient, lights = lights_spec(described["lighting"], label)
     return SceneSpec(
         path=path,

@@ -265,15 +265,13 @@ def render_curve(
     scene_path, out = Path(scene_path), Path(out)
     bounces, g = effective_options(estimator, bounces, g)
     core = Scene.load(scene_path)
-    volume = core.load_volume()
+    volume, _ = core.settle()
     bpy = bpy_module()
     out.mkdir(parents=True, exist_ok=True)
     with tempfile.TemporaryDirectory(prefix="occlux-eevee-") as tmp:
         vdb = Path(tmp) / f"{scene_path.stem}.vdb"
         write_vdb(vdb, {"value": volume})
-        blender_scene, spec = build_blender_scene(
-            scene_path, vdb, estimator, bounces, g, volume=volume
-        )
+        blender_scene, spec = build_blender_scene(core, vdb, estimator, bounces, g, volume=volume)
         settings = eevee_settings(blender_scene, spec)
         apply_quality(blender_scene, ladder[0])
         warmup = _render(bpy, blender_scene, Path(tmp) / "warmup.exr")

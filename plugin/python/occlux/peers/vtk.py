@@ -185,8 +185,8 @@ def load_scene(scene: str | os.PathLike[str] | Scene, estimator: str) -> VtkScen
         core, label = scene, "the scene"
     else:
         core, label = Scene.load(Path(scene)), str(scene)
+    volume, _ = core.settle()  # as `occlux render`: the content centred, the camera framed
     described = core.describe()
-    volume = core.load_volume()
     raw = core.classification.raw_points(volume)
     if raw is None:
         raise VtkPeerError(
