@@ -52,8 +52,9 @@ impl Peer {
     }
 }
 
-/// One render of a peer: its setting in words, its wall time, the EXR it wrote and, for a path
-/// tracer, its samples per pixel.
+/// One render of a peer: its setting in words, its wall time, the EXR it wrote, for a path
+/// tracer its samples per pixel, and for a point off the peer's quality axis the series it
+/// belongs to (drawn apart: VTK without shadows).
 #[derive(Clone, Debug, Deserialize)]
 pub struct Render {
     pub setting: String,
@@ -61,6 +62,8 @@ pub struct Render {
     pub exr: PathBuf,
     #[serde(default)]
     pub spp: Option<u32>,
+    #[serde(default)]
+    pub series: Option<String>,
 }
 
 /// A peer's curve as its module wrote it.

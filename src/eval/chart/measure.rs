@@ -166,8 +166,8 @@ pub struct PeerPoint {
 /// A peer renderer along its quality axis.
 #[derive(Clone, Debug, Serialize)]
 pub struct PeerSeries {
-    /// Its name in the legend ("VTK", "EEVEE").
-    pub peer: &'static str,
+    /// Its name in the legend ("VTK", "EEVEE", "VTK, no shadows").
+    pub peer: String,
     /// What its seconds include, as the peer states it.
     pub timing: String,
     pub points: Vec<PeerPoint>,
@@ -294,24 +294,9 @@ pub fn panel(path: &Path, light: LightingMode, size: u32, setup: &Setup) -> Resu
             let (timing, renders) = peer_series(&truth, peer, &scene_file, light, setup)?;
             if peer == Peer::Cycles {
                 cycles = renders.into_iter().map(|(_, point)| point).collect();
-                continue;
+            } else {
+                peers.extend(series_of(peer, &timing, renders));
             }
-            let points = renders
-                .into_iter()
-                .map(|(setting, p)| PeerPoint {
-                    setting,
-                    seconds: p.seconds,
-                    rel_rmse: p.rel_rmse,
-                    rel_bias: p.rel_bias,
-                    speedup_vs_cycles: None,
-                    speedup_vs_monte_carlo: None,
-                })
-                .collect();
-            peers.push(PeerSeries {
-                peer: peer.label(),
-                timing,
-                points,
-            });
         }
     }
     mark(&mut points, &mut peers, &monte_carlo, &cycles);
@@ -470,8 +455,41 @@ fn lit_scene_file(tree: &Value, name: &str, light: LightingMode, setup: &Setup) 
     Ok(scene_file)
 }
 
+/// A peer's renders as series: its quality axis, then each series of points off it that the
+/// peer names (VTK without shadows), in the order they first appear.
+fn series_of(
+    peer: Peer,
+    timing: &str,
+    renders: Vec<(peers::Render, CurvePoint)>,
+) -> Vec<PeerSeries> {
+    let mut all: Vec<PeerSeries> = vec![];
+    for (render, p) in renders {
+        let name = match &render.series {
+            None => peer.label().to_owned(),
+            Some(series) => format!("{}, {series}", peer.label()),
+        };
+        let point = PeerPoint {
+            setting: render.setting,
+            seconds: p.seconds,
+            rel_rmse: p.rel_rmse,
+            rel_bias: p.rel_bias,
+            speedup_vs_cycles: None,
+            speedup_vs_monte_carlo: None,
+        };
+        match all.iter_mut().find(|s| s.peer == name) {
+            Some(series) => series.points.push(point),
+            None => all.push(PeerSeries {
+                peer: name,
+                timing: timing.to_owned(),
+                points: vec![point],
+            }),
+        }
+    }
+    all
+}
+
 /// `peer` on the lit scene file (Cycles at each of `setup.cycles_spp`), each render measured
-/// against the truth: what its times include, and its settings with their measurements (spp
+/// against the truth: what its times include, and its renders with their measurements (spp
 /// 0 where the peer has no sample count).
 fn peer_series(
     truth: &Truth,
@@ -479,7 +497,7 @@ fn peer_series(
     scene_file: &Path,
     light: LightingMode,
     setup: &Setup,
-) -> Result<(String, Vec<(String, CurvePoint)>)> {
+) -> Result<(String, Vec<(peers::Render, CurvePoint)>)> {
     let folder = scene_file.parent().unwrap_or(setup.work);
     let request = peers::Request {
         scene: scene_file,
@@ -506,7 +524,7 @@ fn peer_series(
                 rel_rmse,
                 rel_bias,
             };
-            Ok((render.setting, point))
+            Ok((render, point))
         })
         .collect::<Result<_>>()?;
     Ok((report.timing, points))
@@ -551,6 +569,41 @@ mod tests {
              [render]\nmethod = \"dos\"\n",
         )
         .unwrap()
+    }
+
+    #[test]
+    fn a_peer_point_off_its_axis_is_a_series_of_its_own() {
+        let render = |setting: &str, series: Option<&str>| {
+            let render = peers::Render {
+                setting: setting.into(),
+                seconds: 1.0,
+                exr: "x.exr".into(),
+                spp: None,
+                series: series.map(str::to_owned),
+            };
+            let point = CurvePoint {
+                spp: 0,
+                seconds: 1.0,
+                rel_rmse: 0.1,
+                rel_bias: 0.0,
+            };
+            (render, point)
+        };
+        let renders = vec![
+            render("step 1", None),
+            render("no shadows", Some("no shadows")),
+            render("step 0.5", None),
+        ];
+        let series = series_of(Peer::Vtk, "one render", renders);
+        let names: Vec<&str> = series.iter().map(|s| s.peer.as_str()).collect();
+        assert_eq!(names, ["VTK", "VTK, no shadows"]);
+        let settings: Vec<&str> = series[0]
+            .points
+            .iter()
+            .map(|p| p.setting.as_str())
+            .collect();
+        assert_eq!(settings, ["step 1", "step 0.5"]);
+        assert!(series.iter().all(|s| s.timing == "one render"));
     }
 
     #[test]

@@ -230,7 +230,7 @@ fn csv_text(panels: &[Panel]) -> String {
         for series in &panel.peers {
             for p in &series.points {
                 text += &format!(
-                    "{},{},{},\"{}\",,{:.6},{:.6},{:.6},,{},{},,\n",
+                    "{},{},\"{}\",\"{}\",,{:.6},{:.6},{:.6},,{},{},,\n",
                     panel.scene,
                     panel.lighting,
                     series.peer.to_lowercase(),

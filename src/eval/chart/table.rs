@@ -51,7 +51,11 @@ fn rows(panel: &Panel) -> Vec<Row> {
         })
         .collect();
     for series in &panel.peers {
-        if let Some(p) = best_of(&series.points, |_| series.peer, |p| p.rel_rmse).first() {
+        let best = series
+            .points
+            .iter()
+            .min_by(|a, b| a.rel_rmse.total_cmp(&b.rel_rmse));
+        if let Some(p) = best {
             rows.push(Row {
                 what: format!("{} ({})", series.peer, p.setting),
                 seconds: p.seconds,
@@ -128,8 +132,12 @@ pub fn markdown(panels: &[Panel]) -> String {
         if !panel.cycles.is_empty() {
             text += &curve_text("Cycles", &panel.cycles);
         }
+        let mut said: Vec<&str> = vec![];
         for series in &panel.peers {
-            text += &format!("- {} times: {}\n", series.peer, series.timing);
+            if !said.contains(&series.timing.as_str()) {
+                text += &format!("- {} times: {}\n", series.peer, series.timing);
+                said.push(&series.timing);
+            }
         }
     }
     text

@@ -14,13 +14,15 @@ ESTIMATORS = ("ambient", "single", "multiple")
 
 
 class CurvePoint(TypedDict):
-    """One render of a peer: its setting in words, its wall time, its image and, for a path
-    tracer, its samples per pixel."""
+    """One render of a peer: its setting in words, its wall time, its image, for a path tracer
+    its samples per pixel, and for a point off the peer's quality axis the series it belongs to
+    (the chart draws it apart, as "PEER, SERIES": VTK without shadows)."""
 
     setting: str
     seconds: float
     exr: str
     spp: NotRequired[int]
+    series: NotRequired[str]
 
 
 def parser(prog: str, description: str) -> argparse.ArgumentParser:

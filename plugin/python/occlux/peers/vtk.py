@@ -596,9 +596,14 @@ def render_curve(
         assert image is not None
         exr = out / f"{PEER}-{estimator}-{i}.exr"
         write_exr_layers(exr, {"beauty": image})
-        points.append(
-            {"setting": setting.label, "seconds": statistics.median(times), "exr": str(exr)}
-        )
+        point: CurvePoint = {
+            "setting": setting.label,
+            "seconds": statistics.median(times),
+            "exr": str(exr),
+        }
+        if not setting.shadows:
+            point["series"] = "no shadows"  # off the axis of sample distances
+        points.append(point)
     lo, hi = renderer.box()
     extra = {
         "version": renderer.vtk["version"],
