@@ -462,13 +462,18 @@ impl Case {
             &self.lighting,
             params,
         );
+        self.image_error(&img)
+    }
+
+    /// Relative RMSE, bias and the reference's noise of any image of this case's view.
+    fn image_error(&self, img: &RenderImage) -> (f64, f64, f64) {
         assert!(
             img.rgba.iter().flatten().all(|v| v.is_finite()),
             "{}: not finite",
             self.name
         );
         // Finite and premultiplied.
-        premultiplied(&img, "shadow");
+        premultiplied(img, "shadow");
         let mean: Vec<[f32; 3]> = self
             .reference
             .mean
@@ -785,7 +790,7 @@ fn half_angle_slicing_converges_to_the_closed_forms() {
 }
 
 #[test]
-fn half_angle_slicing_finds_the_depth_either_way_and_refuses_lamps() {
+fn half_angle_slicing_finds_the_depth_either_way_and_refuses_lamps_too_close() {
     // Front to back (a sun from the side) and back to front (a sun behind the cube): the view
     // transmittance falls through 0.5 at ln 2 / sigma into the cube, 2 + ln 2 / sigma from
     // the camera. The slabs cross the cube's face obliquely, so the first one's material is
@@ -805,23 +810,201 @@ fn half_angle_slicing_finds_the_depth_either_way_and_refuses_lamps() {
         assert!(shadow[centre] < 0.9 * coverage[centre] && coverage[0] == 0.0);
         assert!(img.depth[0] == occlux::render::BACKGROUND_DEPTH);
     }
+    // A lamp inside the cube (or at its centre): its rays leave the slices in every direction.
     let (volume, lut) = cube();
-    let lamp = Lighting {
-        lights: vec![lamp(Vec3::new(0.0, -2.0, 2.0))],
-        background: Vec3::ZERO,
-    };
-    let input = HalfAngleInput {
-        volume: &volume,
-        lut: &lut,
-        camera: &side_camera(),
-        lighting: &lamp,
-        params: &HalfAngleParams::default(),
-    };
-    let message = half_angle::cpu::render(&input, &NoProgress)
-        .unwrap_err()
-        .to_string();
+    for (index, position) in [(0, Vec3::new(0.0, 0.0, 0.5)), (1, Vec3::ZERO)] {
+        let mut lights = vec![sun(Vec3::Z)];
+        lights.insert(index, lamp(position));
+        let lighting = Lighting {
+            lights,
+            background: Vec3::ZERO,
+        };
+        let input = HalfAngleInput {
+            volume: &volume,
+            lut: &lut,
+            camera: &side_camera(),
+            lighting: &lighting,
+            params: &HalfAngleParams::default(),
+        };
+        let message = half_angle::cpu::render(&input, &NoProgress)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            message.contains(&format!("lights[{index}]"))
+                && message.contains("too close")
+                && message.contains("ipsvi"),
+            "{message}"
+        );
+    }
+}
+
+/// The cube's single scattering under `light` seen through `camera`, by a fine quadrature of
+/// each view ray with the exact transmittance of the light's path through the cube.
+fn exact_single_scattering(camera: &Camera, light: &Light) -> Vec<f64> {
+    let (volume, _) = cube();
+    let (lo, hi) = volume.bounds();
+    let k = (ALBEDO / (4.0 * PI)) as f64;
+    (0..camera.width * camera.height)
+        .map(|p| {
+            let ray = camera.ray(p % camera.width, p / camera.width);
+            let Some((near, far)) = intersect_box(&ray, lo, hi) else {
+                return 0.0;
+            };
+            let h = 1e-3;
+            let (mut t, mut seen, mut exact) = (near + 0.5 * h, 1.0f64, 0.0f64);
+            while t < far {
+                let x = ray.origin + t * ray.dir;
+                let (to_light, irradiance) = occlux::lights::incident(light, x).unwrap();
+                let d = intersect_box(
+                    &Ray {
+                        origin: x,
+                        dir: to_light,
+                    },
+                    lo,
+                    hi,
+                )
+                .unwrap()
+                .1;
+                let alpha = 1.0 - (-(SIGMA * h) as f64).exp();
+                exact += seen * alpha * k * irradiance.x as f64 * (-(SIGMA * d) as f64).exp();
+                seen *= 1.0 - alpha;
+                t += h;
+            }
+            exact
+        })
+        .collect()
+}
+
+#[test]
+fn half_angle_slicing_of_a_lamp_converges_to_exact_shadow_rays() {
+    // A lamp behind the viewer (the eye composites front to back) and one behind the cube
+    // (back to front), a perspective view: the same first-order bias in the slice distance as
+    // under a sun (a slab's samples are lit through the slabs before, not their own), plus the
+    // light buffer's interpolation between the lamp's rays. Measured: 0.092 / 0.012 (front)
+    // and 0.144 / 0.015 (back) at 1 and 8 slices per voxel.
+    let (volume, lut) = cube();
+    let camera = Camera::look_at(
+        EYE,
+        Vec3::ZERO,
+        Vec3::Z,
+        Projection::Perspective { fov_y: 0.7 },
+        40,
+        40,
+    )
+    .unwrap();
+    for position in [Vec3::new(1.8, -3.0, 2.4), Vec3::new(-2.4, 3.0, 1.8)] {
+        let light = lamp(position);
+        let exact = exact_single_scattering(&camera, &light);
+        let lighting = Lighting {
+            lights: vec![light],
+            background: Vec3::ZERO,
+        };
+        let mut errors = vec![];
+        for slices_per_voxel in [1.0, 8.0] {
+            let params = HalfAngleParams {
+                slice_distance: Some(1.0 / 16.0 / slices_per_voxel),
+                ..HalfAngleParams::default()
+            };
+            let input = HalfAngleInput {
+                volume: &volume,
+                lut: &lut,
+                camera: &camera,
+                lighting: &lighting,
+                params: &params,
+            };
+            let img = half_angle::cpu::render(&input, &NoProgress).unwrap();
+            premultiplied(&img, "shadow");
+            let (mut squares, mut sum) = (0.0f64, 0.0f64);
+            for (rgba, want) in img.rgba.iter().zip(&exact) {
+                assert!(rgba[0].is_finite());
+                squares += (rgba[0] as f64 - want).powi(2);
+                sum += want;
+            }
+            let n = exact.len() as f64;
+            errors.push((squares / n).sqrt() / (sum / n));
+        }
+        println!("half-angle, lamp at {position}: relative RMSE {errors:.4?} at 1 and 8 slices per voxel");
+        assert!(
+            errors[1] < 0.04 && errors[1] < errors[0] / 3.0,
+            "{position}: {errors:?}"
+        );
+    }
+}
+
+#[test]
+fn half_angle_slicing_of_a_lamp_converges_to_the_single_scattering_reference() {
+    // The CT phantom (ct-bone, dense) under a lamp outside it, as IPSVI's "lamp outside" case.
+    // Half-angle slicing's first-order bias (a slab is not shadowed by itself) is large here at
+    // a slice per voxel, as under a sun ("sun behind the viewer": 0.26, +24 %); it falls with
+    // the slice distance. Measured beyond the reference's noise: 0.378 (+28 %) at a voxel,
+    // 0.094 (+7.0 %) at a quarter voxel; IPSVI 0.027 on the same case.
+    let case = ct_case("lamp outside", EYE, 40.0, lamp(Vec3::new(-1.5, -2.5, 2.0)));
+    let voxel = case.volume.spacing().min_element();
+    let mut errors = vec![];
+    for slice_distance in [voxel, voxel / 4.0] {
+        let params = HalfAngleParams {
+            slice_distance: Some(slice_distance),
+            ..HalfAngleParams::default()
+        };
+        let input = HalfAngleInput {
+            volume: &case.volume,
+            lut: &case.lut,
+            camera: &case.camera,
+            lighting: &case.lighting,
+            params: &params,
+        };
+        let img = half_angle::cpu::render(&input, &NoProgress).unwrap();
+        let (rmse, bias, noise) = case.image_error(&img);
+        let excess = (rmse * rmse - noise * noise).max(0.0).sqrt();
+        println!(
+            "half-angle, lamp outside the CT phantom, slices {slice_distance:.4} apart: beyond \
+             noise {excess:.4}, bias {bias:+.4} (noise {noise:.4})"
+        );
+        errors.push((excess, bias));
+    }
+    let ((coarse, _), (fine, fine_bias)) = (errors[0], errors[1]);
     assert!(
-        message.contains("point") && message.contains("directional"),
-        "{message}"
+        fine < 0.15 && fine_bias.abs() < 0.1 && fine < coarse / 2.5,
+        "{errors:?}"
     );
+}
+
+#[test]
+fn half_angle_slicing_of_a_distant_lamp_is_that_of_a_sun() {
+    // A lamp a thousand times further off than the volume is wide, bright enough to give the
+    // sun's irradiance at the volume, lights it as that sun does: the same slicing, the same
+    // light buffer's rays up to their fan's spread (1e-3 rad), irradiance within 0.2 %; what
+    // differs is where the two light buffers put their texels (the lamp's fitted on its plane
+    // of directions). Measured: 5.4e-3.
+    let case = ct_case("lamp outside", EYE, 40.0, lamp(Vec3::new(-1.5, -2.5, 2.0)));
+    let towards = Vec3::new(-1.5, -2.5, 2.0).normalize();
+    let image = |light: Light| {
+        let lighting = Lighting {
+            lights: vec![light],
+            background: Vec3::ZERO,
+        };
+        let input = HalfAngleInput {
+            volume: &case.volume,
+            lut: &case.lut,
+            camera: &case.camera,
+            lighting: &lighting,
+            params: &HalfAngleParams::default(),
+        };
+        half_angle::cpu::render(&input, &NoProgress).unwrap()
+    };
+    let far = 2000.0 * towards;
+    let lamp = image(Light::Point {
+        position: far,
+        intensity: Vec3::splat(3.0 * far.length_squared()),
+    });
+    let sun = image(sun(towards));
+    let (mut squares, mut sum) = (0.0f64, 0.0f64);
+    for (a, b) in lamp.rgba.iter().zip(&sun.rgba) {
+        squares += ((a[0] - b[0]) as f64).powi(2);
+        sum += b[0] as f64;
+    }
+    let n = lamp.rgba.len() as f64;
+    let error = (squares / n).sqrt() / (sum / n);
+    println!("half-angle, a distant lamp against its sun: relative RMSE {error:.2e}");
+    assert!(error < 0.01, "{error}");
 }

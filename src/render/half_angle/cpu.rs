@@ -5,8 +5,8 @@
 use super::HalfAngleInput;
 use crate::camera::Ray;
 use crate::classify::Optical;
-use crate::error::Result;
-use crate::lights::Light;
+use crate::error::{Error, Result};
+use crate::lights::{incident, Light};
 use crate::progress::Progress;
 use crate::render::ipsvi::cache::{CacheMap, Resolution};
 use crate::render::raycast::cpu::emitted;
@@ -21,76 +21,103 @@ use rayon::prelude::*;
 struct Eye {
     /// The pixel's view ray.
     ray: Ray,
-    /// Light scattered towards the eye by the suns done, by the current one, and emission
-    /// (gathered in the first sun's pass).
+    /// Light scattered towards the eye by the lights done, by the current one, and emission
+    /// (gathered in the first light's pass).
     scattered: Vec3,
-    this_sun: Vec3,
+    this_light: Vec3,
     emitted: Vec3,
     /// Transmittance so far: in front of the slab (front to back) or behind it (back to front).
     transmittance: f32,
     /// The whole ray's transmittance (back to front: from the extinction-only pre-pass).
     total: f32,
     depth: f32,
-    /// The shadow layer: the current sun's transmittance at each sample weighted by the
-    /// sample's contribution (composited as the colour is), its P; and over the suns done,
-    /// each P times the sun's grey irradiance, and those irradiances.
+    /// The shadow layer: the current light's transmittance at each sample weighted by the
+    /// sample's contribution (composited as the colour is), its P, and the light's grey
+    /// irradiance weighted the same way, its weight; over the lights done, each P times its
+    /// weight, and the weights.
     this_lit: f32,
+    this_weight: f32,
     lit: f32,
     irradiance: f32,
 }
 
-/// The slicing of one sun: the half vector, the slabs' range along it and the light buffer.
+/// The slicing of one light: the half vector, the slabs' range along it and the light buffer.
 struct Slicing {
+    light: Light,
     h: Vec3,
-    /// Direction the light travels.
-    travel: Vec3,
-    to_light: Vec3,
-    irradiance: Vec3,
     front_to_back: bool,
     first: f32,
     slabs: u32,
     map: CacheMap,
+    /// Each light-buffer ray's origin and the unit direction it travels (a sun's rays all
+    /// along one direction, a lamp's from the lamp), with `dir . h` > 0 where it crosses the
+    /// volume; rays that run along the slices or back are None.
+    rays: Vec<Option<(Vec3, Vec3)>>,
 }
 
 impl Slicing {
-    fn new(input: &HalfAngleInput, to_light: Vec3, irradiance: Vec3, d: f32) -> Option<Self> {
+    /// The slicing of `light`; None for light that casts no shadow here (ambient light). A
+    /// lamp's rays fan out, so the slices serve them only if every one crosses them in order:
+    /// the whole box must lie on the far side of the plane through the lamp across the half
+    /// vector (refused by name otherwise).
+    fn new(input: &HalfAngleInput, index: usize, light: &Light, d: f32) -> Result<Option<Self>> {
         let camera = input.camera;
         let (lo, hi) = input.volume.bounds();
-        let view = camera.forward;
-        let travel = -to_light;
-        let front_to_back = view.dot(travel) >= 0.0;
-        // |v + w| >= sqrt(2) when v . w >= 0, and |w - v| >= sqrt(2) otherwise: never zero.
-        let h = if front_to_back {
-            (view + travel).normalize()
-        } else {
-            (travel - view).normalize()
-        };
-        let along: Vec<f32> = (0..8)
+        let corners: Vec<Vec3> = (0..8)
             .map(|c| Vec3::select(glam::BVec3::new(c & 1 != 0, c & 2 != 0, c & 4 != 0), hi, lo))
-            .map(|corner| corner.dot(h))
             .collect();
+        // The direction the light travels through the volume: a lamp's towards the box's
+        // centre, where its rays fan out from.
+        let travel = match *light {
+            Light::Ambient { .. } => return Ok(None),
+            Light::Directional { to_light, .. } => -to_light,
+            Light::Point { position, .. } => (0.5 * (lo + hi) - position).normalize_or_zero(),
+        };
+        let view = camera.forward;
+        let front_to_back = view.dot(travel) >= 0.0;
+        // |v + w| >= sqrt(2) when v . w >= 0, and |w - v| >= sqrt(2) otherwise: never zero
+        // (a lamp at the box's centre has no travel and is refused below).
+        let h = if front_to_back {
+            (view + travel).normalize_or_zero()
+        } else {
+            (travel - view).normalize_or_zero()
+        };
+        let along: Vec<f32> = corners.iter().map(|corner| corner.dot(h)).collect();
         let first = along.iter().copied().fold(f32::INFINITY, f32::min);
         let last = along.iter().copied().fold(f32::NEG_INFINITY, f32::max);
-        let light = Light::Directional {
-            to_light,
-            irradiance,
-        };
+        if let Light::Point { position, .. } = *light {
+            if h == Vec3::ZERO || position.dot(h) >= first {
+                return Err(Error::param(
+                    format!("lights[{index}]"),
+                    format!(
+                        "the point light at {position} is too close to the volume for                          half-angle slicing: its rays cross slices along the half vector in                          order only when the whole box lies beyond the plane through the lamp                          across that vector; move it further out or render with                          method = \"ipsvi\", which takes lamps anywhere"
+                    ),
+                ));
+            }
+        }
         let resolution =
             Resolution::for_view(input.params.light_buffer, input.volume, input.camera);
-        let map = CacheMap::new(&light, lo, hi, resolution)?;
-        Some(Self {
+        let Some(map) = CacheMap::new(light, lo, hi, resolution) else {
+            return Ok(None);
+        };
+        let rays = (0..map.texels() as u32)
+            .map(|texel| {
+                let (origin, dir) = map.ray(texel);
+                (dir.dot(h) > 1e-6).then_some((origin, dir))
+            })
+            .collect();
+        Ok(Some(Self {
+            light: *light,
             h,
-            travel,
-            to_light,
-            irradiance,
             front_to_back,
             first,
             slabs: ((last - first) / d).ceil().max(1.0) as u32,
             map,
-        })
+            rays,
+        }))
     }
 
-    /// The h-coordinate of slab k's middle plane; slabs run along +h, away from the sun.
+    /// The h-coordinate of slab k's middle plane; slabs run along +h, away from the light.
     fn middle(&self, k: u32, d: f32) -> f32 {
         self.first + (k as f32 + 0.5) * d
     }
@@ -137,28 +164,21 @@ pub fn render(input: &HalfAngleInput, progress: &dyn Progress) -> Result<RenderI
         .map(|p| Eye {
             ray: camera.ray(p % camera.width, p / camera.width),
             scattered: Vec3::ZERO,
-            this_sun: Vec3::ZERO,
+            this_light: Vec3::ZERO,
             emitted: Vec3::ZERO,
             transmittance: 1.0,
             total: 1.0,
             depth: BACKGROUND_DEPTH,
             this_lit: 0.0,
+            this_weight: 0.0,
             lit: 0.0,
             irradiance: 0.0,
         })
         .collect();
-    let slicings: Vec<Slicing> = input
-        .lighting
-        .lights
-        .iter()
-        .filter_map(|light| match *light {
-            Light::Directional {
-                to_light,
-                irradiance,
-            } => Slicing::new(input, to_light, irradiance, d),
-            _ => None,
-        })
-        .collect();
+    let mut slicings = Vec::new();
+    for (index, light) in input.lighting.lights.iter().enumerate() {
+        slicings.extend(Slicing::new(input, index, light, d)?);
+    }
     let work: u64 = slicings.iter().map(|s| s.slabs as u64).sum();
     let mut done = 0;
     for (pass, slicing) in slicings.iter().enumerate() {
@@ -178,8 +198,9 @@ pub fn render(input: &HalfAngleInput, progress: &dyn Progress) -> Result<RenderI
             eyes.iter_mut().for_each(|eye| eye.transmittance = 1.0);
         }
         eyes.iter_mut().for_each(|eye| {
-            eye.this_sun = Vec3::ZERO;
+            eye.this_light = Vec3::ZERO;
             eye.this_lit = 0.0;
+            eye.this_weight = 0.0;
         });
         // The light buffer holds the optical depth each light ray has crossed: interpolated
         // between rays it errs far less than the transmittance where that falls by orders of
@@ -214,22 +235,29 @@ pub fn render(input: &HalfAngleInput, progress: &dyn Progress) -> Result<RenderI
                     pass == 0,
                 );
             });
-            depth.par_iter_mut().enumerate().for_each(|(texel, tau)| {
-                let base = slicing.map.ray_point(texel as u32, 0.0);
-                let across = slicing.travel.dot(slicing.h);
-                let p = base + slicing.travel * ((c - base.dot(slicing.h)) / across);
-                if p.cmpge(lo).all() && p.cmple(hi).all() {
-                    *tau += medium.optical(p).sigma_t * d / across;
-                }
-            });
+            // Each light ray crosses the slab's middle plane once, over d / (dir . h).
+            depth
+                .par_iter_mut()
+                .zip(&slicing.rays)
+                .for_each(|(tau, ray)| {
+                    let Some((origin, dir)) = *ray else {
+                        return;
+                    };
+                    let across = dir.dot(slicing.h);
+                    let p = origin + dir * ((c - origin.dot(slicing.h)) / across);
+                    if p.cmpge(lo).all() && p.cmple(hi).all() {
+                        *tau += medium.optical(p).sigma_t * d / across;
+                    }
+                });
             done += 1;
             progress.update(done, work);
         }
-        let grey = slicing.irradiance.element_sum() / 3.0;
+        // Each light's P weighs by its irradiance at the samples, weighted as they are
+        // composited (for a sun its grey irradiance times the coverage).
         eyes.iter_mut().for_each(|eye| {
-            eye.scattered += eye.this_sun;
-            eye.lit += grey * eye.this_lit;
-            eye.irradiance += grey;
+            eye.scattered += eye.this_light;
+            eye.lit += eye.this_weight * eye.this_lit;
+            eye.irradiance += eye.this_weight;
         });
     }
     let background = input.lighting.background;
@@ -256,7 +284,7 @@ pub fn render(input: &HalfAngleInput, progress: &dyn Progress) -> Result<RenderI
     Ok(image)
 }
 
-/// Adds one slab's sample (the sun's transmittance there `lit`) to the pixel's eye state,
+/// Adds one slab's sample (the light's transmittance there `lit`) to the pixel's eye state,
 /// front to back or back to front, and finds the depth.
 #[inline]
 fn shade(
@@ -269,21 +297,25 @@ fn shade(
     first_pass: bool,
 ) {
     let alpha = 1.0 - (-optical.sigma_t * sample.dt).exp();
+    let (to_light, irradiance) = incident(&slicing.light, sample.x).unwrap_or_default();
     // Light travels along -to_light and leaves along -dir: cos = to_light . dir.
-    let phase = henyey_greenstein(g, slicing.to_light.dot(sample.dir));
-    let scattered = optical.albedo * phase * slicing.irradiance * lit * alpha;
+    let phase = henyey_greenstein(g, to_light.dot(sample.dir));
+    let scattered = optical.albedo * phase * irradiance * lit * alpha;
+    let grey = irradiance.element_sum() / 3.0;
     let own = emitted(optical, alpha, sample.dt);
     // The transmittance in front of this sample, for the depth.
     let in_front = if slicing.front_to_back {
-        eye.this_sun += eye.transmittance * scattered;
+        eye.this_light += eye.transmittance * scattered;
         eye.this_lit += eye.transmittance * alpha * lit;
+        eye.this_weight += eye.transmittance * alpha * grey;
         if first_pass {
             eye.emitted += eye.transmittance * own;
         }
         eye.transmittance
     } else {
-        eye.this_sun = scattered + (1.0 - alpha) * eye.this_sun;
+        eye.this_light = scattered + (1.0 - alpha) * eye.this_light;
         eye.this_lit = alpha * lit + (1.0 - alpha) * eye.this_lit;
+        eye.this_weight = alpha * grey + (1.0 - alpha) * eye.this_weight;
         if first_pass {
             eye.emitted = own + (1.0 - alpha) * eye.emitted;
         }

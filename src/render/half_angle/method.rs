@@ -30,16 +30,16 @@ pub const LIGHT_BUFFER: ParamSpec = ParamSpec {
 impl RenderMethod for HalfAngleParams {
     const SPEC: MethodSpec = MethodSpec {
         name: "half-angle",
-        summary: "Half-angle slicing: single scattering with shadows from suns, slices along the \
-                  half vector shared by the eye and a light buffer (Kniss et al. 2003; IPSVI's \
-                  baseline); CPU only",
+        summary: "Half-angle slicing: single scattering with shadows from suns and lamps, slices \
+                  along the half vector shared by the eye and a light buffer (Kniss et al. 2003; \
+                  IPSVI's baseline); CPU only",
         module: "render::half_angle",
         shaders: &[],
-        lights: &[LightKind::Directional],
+        lights: &[LightKind::Directional, LightKind::Point],
         layers: &["beauty", "depth", "shadow"],
         grids: &[],
         chart: &[""],
-        for_lights: &[LightKind::Directional],
+        for_lights: &[LightKind::Directional, LightKind::Point],
         params: &[SLICE_DISTANCE, LIGHT_BUFFER, G],
     };
 

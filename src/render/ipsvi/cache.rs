@@ -269,6 +269,16 @@ impl CacheMap {
     /// The point at travel `s` on the light ray through the centre of `texel`.
     #[inline]
     pub fn ray_point(&self, texel: u32, s: f32) -> Vec3 {
+        let (origin, dir) = self.ray(texel);
+        origin + dir * s
+    }
+
+    /// The light ray through the centre of `texel`: its point at travel 0 (on the plane s = 0
+    /// through the world's origin for a sun, the lamp itself) and the unit direction the light
+    /// travels along it. Taken apart rather than as the difference of two [`Self::ray_point`]s,
+    /// which loses the direction's precision when the ray starts far off (a distant lamp).
+    #[inline]
+    pub fn ray(&self, texel: u32) -> (Vec3, Vec3) {
         let centre = Vec2::new((texel % self.size.x) as f32, (texel / self.size.x) as f32) + 0.5;
         match self.map {
             Map::Parallel {
@@ -279,7 +289,7 @@ impl CacheMap {
                 texel,
             } => {
                 let uv = origin + centre * texel;
-                e1 * uv.x + e2 * uv.y + travel * s
+                (e1 * uv.x + e2 * uv.y, travel)
             }
             Map::Planar {
                 light,
@@ -290,11 +300,11 @@ impl CacheMap {
                 texel,
             } => {
                 let ab = origin + centre * texel;
-                light + (axis + e1 * ab.x + e2 * ab.y).normalize() * s
+                (light, (axis + e1 * ab.x + e2 * ab.y).normalize())
             }
             Map::Sphere { light } => {
                 let uv = centre / self.size.as_vec2() * 2.0 - 1.0;
-                light + crate::octahedral::decode(uv) * s
+                (light, crate::octahedral::decode(uv))
             }
         }
     }
