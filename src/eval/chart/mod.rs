@@ -50,8 +50,10 @@ pub struct ChartArgs {
     /// cycles (at --cycles-spp), vtk (its GPU ray caster with volumetric shadows), eevee.
     #[arg(long, value_delimiter = ',', default_value = "cycles,vtk,eevee")]
     pub peers: Vec<Peer>,
-    /// Cycles' curve: its sample counts.
-    #[arg(long, value_delimiter = ',', default_value = "1,4,16")]
+    /// Cycles' curve: its sample counts. Up to 256, so that the fast methods' errors mostly lie
+    /// on the curve rather than beyond its end (where the speed-up is extrapolated along its
+    /// last segment).
+    #[arg(long, value_delimiter = ',', default_value = "1,4,16,64,256")]
     pub cycles_spp: Vec<u32>,
     /// Leave every peer out (no Python with Blender needed).
     #[arg(long)]
