@@ -456,12 +456,7 @@ fn encode_values(
     match options.compression {
         Compression::None => block.extend_from_slice(&raw),
         Compression::Zip => {
-            let mut z = flate2::write::ZlibEncoder::new(
-                Vec::with_capacity(raw.len() / 2),
-                flate2::Compression::default(),
-            );
-            z.write_all(&raw)?;
-            let zipped = z.finish()?;
+            let zipped = ZIPPER.with(|z| z.borrow_mut().zip(&raw))?;
             if zipped.len() < raw.len() {
                 block.extend_from_slice(&(zipped.len() as i64).to_le_bytes());
                 block.extend_from_slice(&zipped);
@@ -472,6 +467,42 @@ fn encode_values(
         }
     }
     Ok(block)
+}
+
+thread_local! {
+    /// Each thread's zlib stream, reset for every block: a fresh one per block spent more time
+    /// setting up and clearing its tables than compressing a leaf's 2 KiB.
+    static ZIPPER: std::cell::RefCell<Zipper> = std::cell::RefCell::new(Zipper::new());
+}
+
+/// A reusable zlib compressor at the default level.
+struct Zipper {
+    stream: flate2::Compress,
+}
+
+impl Zipper {
+    fn new() -> Self {
+        Self {
+            stream: flate2::Compress::new(flate2::Compression::default(), true),
+        }
+    }
+
+    /// `raw` as one zlib stream (header, deflate data, Adler-32), as `ZlibEncoder` writes it.
+    fn zip(&mut self, raw: &[u8]) -> std::io::Result<Vec<u8>> {
+        self.stream.reset();
+        let mut out = Vec::with_capacity(raw.len() + raw.len() / 16 + 64);
+        loop {
+            let consumed = self.stream.total_in() as usize;
+            let status = self
+                .stream
+                .compress_vec(&raw[consumed..], &mut out, flate2::FlushCompress::Finish)
+                .map_err(std::io::Error::other)?;
+            match status {
+                flate2::Status::StreamEnd => return Ok(out),
+                _ => out.reserve(out.capacity().max(64)),
+            }
+        }
+    }
 }
 
 fn write_grid<W: Write + Seek>(
