@@ -6,8 +6,9 @@
 #
 #     bash bench/memory.sh [N] [path/to/occlux]
 #
-# Needs /usr/bin/time (Debian/Ubuntu: apt-get install time) and about 12 N^3 * 4 bytes of RAM
-# for the sweep's AO. Prints one line per command: max RSS in MiB and its ratio to N^3 * 4.
+# Needs /usr/bin/time (Debian/Ubuntu: apt-get install time) and about 2.1 N^3 * 4 bytes of RAM
+# (the sweep's AO: extinction and visibility, each dense). Prints one line per command: max RSS
+# in MiB and its ratio to N^3 * 4.
 set -euo pipefail
 
 size=${1:-512}

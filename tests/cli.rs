@@ -5,6 +5,7 @@ use occlux::gpu::Compute;
 use occlux::pipeline;
 use occlux::progress::NoProgress;
 use occlux::scene::Scene;
+use std::borrow::Cow;
 use std::path::Path;
 use std::process::{Command, Output};
 
@@ -496,13 +497,18 @@ fn ao_writes_the_grids_slice_and_timing_the_library_computes() {
     );
     let scene = Scene::from_file(&scene_path).unwrap();
     let volume = scene.load_volume().unwrap();
-    let field = ScalarField::new(&volume, &scene.classification, FieldKind::Extinction).unwrap();
+    let field = ScalarField::new(
+        Cow::Borrowed(&volume),
+        &scene.classification,
+        FieldKind::Extinction,
+    )
+    .unwrap();
     let params = VaoParams {
         radius: 3,
         estimator: Estimator::Gauss,
         variance: true,
     };
-    let ao = vao::ao_volume(&Compute::Cpu, &field, &params, &NoProgress).unwrap();
+    let ao = vao::ao_volume(&Compute::Cpu, Cow::Borrowed(&field), &params, &NoProgress).unwrap();
     // The grid means 1 = unoccluded: VAO's raw openness doubled up to 1.
     let openness = occlux::ao::unoccluded(ao.openness.clone()).unwrap();
     let file = std::io::BufReader::new(std::fs::File::open(dir.join("ball-ao.vdb")).unwrap());
@@ -615,7 +621,7 @@ fn ao_by_occlusion_sweeping_writes_the_level_set_and_octants_the_library_compute
     params.geometric.intensities = occlux::ao::sweep::geometric::SKY;
     let ao = ao_volume(
         &Compute::Cpu,
-        &volume,
+        Cow::Borrowed(&volume),
         &scene.classification,
         &params,
         &NoProgress,

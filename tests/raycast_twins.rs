@@ -12,6 +12,7 @@
 
 mod common;
 use common::twins::{assert_same, ctx, inside, orthographic, perspective};
+use std::borrow::Cow;
 
 use glam::Vec3;
 use occlux::camera::Camera;
@@ -94,10 +95,15 @@ fn ambient_occlusion_shading_agrees_with_and_without_modulation_and_direct_light
     use occlux::ao::vao::{self, FieldKind, ScalarField, VaoParams};
     let volume = phantom::ct(48).unwrap();
     let classification = presets::preset("ct-soft-tissue").unwrap();
-    let field = ScalarField::new(&volume, &classification, FieldKind::Extinction).unwrap();
+    let field = ScalarField::new(
+        Cow::Borrowed(&volume),
+        &classification,
+        FieldKind::Extinction,
+    )
+    .unwrap();
     let ao = vao::ao_volume(
         &occlux::gpu::Compute::Cpu,
-        &field,
+        Cow::Borrowed(&field),
         &VaoParams {
             radius: 4,
             variance: true,

@@ -11,6 +11,7 @@ use occlux::progress::NoProgress;
 use occlux::scene::Scene;
 use occlux::volume::{phantom, Volume};
 use rand::{Rng, SeedableRng};
+use std::borrow::Cow;
 use std::path::Path;
 
 /// A ball of radius `r` (world units) of extinction `sigma` in the cube [-1, 1]^3, `n`^3 voxels.
@@ -134,7 +135,7 @@ fn ao_volumes_by_sweep_refuse_what_they_cannot_compute() {
     };
     let ao = ao_volume(
         &Compute::Cpu,
-        &volume,
+        Cow::Borrowed(&volume),
         &scene.classification,
         &base,
         &NoProgress,
@@ -174,7 +175,7 @@ fn ao_volumes_by_sweep_refuse_what_they_cannot_compute() {
     ] {
         let err = ao_volume(
             &Compute::Cpu,
-            &volume,
+            Cow::Borrowed(&volume),
             &scene.classification,
             &params,
             &NoProgress,

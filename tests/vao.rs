@@ -17,6 +17,7 @@ use occlux::classify::presets::preset;
 use occlux::gpu::Compute;
 use occlux::progress::NoProgress;
 use occlux::volume::{phantom, Volume};
+use std::borrow::Cow;
 
 fn gpu() -> Compute {
     Compute::Gpu(common::twins::ctx())
@@ -39,7 +40,7 @@ fn noise(dims: [usize; 3]) -> Volume {
 fn ct_field(n: usize) -> ScalarField {
     let volume = phantom::ct(n).unwrap();
     ScalarField::new(
-        &volume,
+        Cow::Owned(volume),
         &preset("ct-soft-tissue").unwrap(),
         FieldKind::Extinction,
     )
@@ -138,7 +139,7 @@ fn statistics_of_a_linear_ramp_have_closed_forms() {
         assert!((s.second[n] - second).abs() < 1e-4 * second);
         // At the box's mean with symmetric spread, (a) and (b) give exactly one half and
         // Penner's bound gives full occlusion.
-        let open = |e| vao::estimate::openness(e, kf, &s.at(n));
+        let open = |e| vao::estimate::openness(e, kf, &s.view().at(n));
         assert!(
             (open(Estimator::Cdf) - 0.5).abs() < 1e-3,
             "{}",
@@ -208,8 +209,9 @@ fn twins_agree_on_statistics_and_every_estimate() {
                     estimator,
                     variance: true,
                 };
-                let c = vao::ao_volume(&Compute::Cpu, &f, &params, &NoProgress).unwrap();
-                let g = vao::ao_volume(&compute, &f, &params, &NoProgress).unwrap();
+                let c =
+                    vao::ao_volume(&Compute::Cpu, Cow::Borrowed(&f), &params, &NoProgress).unwrap();
+                let g = vao::ao_volume(&compute, Cow::Borrowed(&f), &params, &NoProgress).unwrap();
                 let diff = max_diff(c.openness.values(), g.openness.values());
                 let var_diff = max_diff(
                     c.variance.as_ref().unwrap().values(),
@@ -261,20 +263,20 @@ fn degenerate_volumes_give_one_half_or_values_in_the_unit_interval() {
                 estimator,
                 variance: false,
             };
-            let o = vao::ao_volume(c, &constant, &params, &NoProgress).unwrap();
+            let o = vao::ao_volume(c, Cow::Borrowed(&constant), &params, &NoProgress).unwrap();
             assert!(
                 o.openness.values().iter().all(|&v| v == 0.5),
                 "{estimator:?}"
             );
             for f in [&spike, &huge] {
-                let o = vao::ao_volume(c, f, &params, &NoProgress).unwrap();
+                let o = vao::ao_volume(c, Cow::Borrowed(f), &params, &NoProgress).unwrap();
                 assert!(
                     o.openness.values().iter().all(|v| (0.0..=1.0).contains(v)),
                     "{estimator:?}"
                 );
             }
             // The spike's own voxel holds the box's maximum: fully open for every estimate.
-            let o = vao::ao_volume(c, &spike, &params, &NoProgress).unwrap();
+            let o = vao::ao_volume(c, Cow::Borrowed(&spike), &params, &NoProgress).unwrap();
             let at_spike = o.openness.at(4, 4, 4);
             assert!(at_spike > 0.95, "{estimator:?}: {at_spike}");
         }
@@ -308,7 +310,7 @@ fn invalid_parameters_are_named() {
             "variance",
         ),
     ] {
-        let err = vao::ao_volume(&Compute::Cpu, &f, &params, &NoProgress)
+        let err = vao::ao_volume(&Compute::Cpu, Cow::Borrowed(&f), &params, &NoProgress)
             .err()
             .unwrap()
             .to_string();
@@ -327,7 +329,7 @@ fn cancelling_stops_the_statistics() {
     }
     let f = ct_field(24);
     for c in [Compute::Cpu, gpu()] {
-        let err = vao::ao_volume(&c, &f, &VaoParams::default(), &Cancel).err();
+        let err = vao::ao_volume(&c, Cow::Borrowed(&f), &VaoParams::default(), &Cancel).err();
         assert!(matches!(err, Some(occlux::Error::Cancelled)));
     }
 }
@@ -513,7 +515,14 @@ fn written_ao(volume: &Volume, method: &str, convention: &str) -> Volume {
         convention: convention.parse().unwrap(),
         ..Default::default()
     };
-    let ao = ao_volume(&Compute::Cpu, volume, &opaque(), &params, &NoProgress).unwrap();
+    let ao = ao_volume(
+        &Compute::Cpu,
+        Cow::Borrowed(volume),
+        &opaque(),
+        &params,
+        &NoProgress,
+    )
+    .unwrap();
     let dir = tempfile::tempdir().unwrap();
     let record = serde_json::json!({ "method": method });
     occlux::pipeline::write_ao(&ao, &record, dir.path(), "t", &VdbOptions::default()).unwrap();
@@ -679,7 +688,7 @@ fn written_ao_grids_read_one_in_empty_space_and_less_by_matter_for_every_method(
 #[test]
 fn the_raw_convention_keeps_vaos_openness_and_the_default_doubles_it_up_to_one() {
     let scene = phantom::box_and_sphere([48; 3]).unwrap();
-    let field = ScalarField::new(&scene, &opaque(), FieldKind::Extinction).unwrap();
+    let field = ScalarField::new(Cow::Borrowed(&scene), &opaque(), FieldKind::Extinction).unwrap();
     for estimator in Estimator::ALL {
         let method = estimator.name();
         let params = VaoParams {
@@ -687,7 +696,8 @@ fn the_raw_convention_keeps_vaos_openness_and_the_default_doubles_it_up_to_one()
             estimator,
             variance: false,
         };
-        let paper = vao::ao_volume(&Compute::Cpu, &field, &params, &NoProgress).unwrap();
+        let paper =
+            vao::ao_volume(&Compute::Cpu, Cow::Borrowed(&field), &params, &NoProgress).unwrap();
         let raw = written_ao(&scene, method, "raw");
         let unoccluded = written_ao(&scene, method, "unoccluded");
         // The paper's convention, unchanged: 1/2 in empty space and on a flat interface.
@@ -810,6 +820,7 @@ fn variance_at_large_radii_matches_an_f64_reference_on_both_twins() {
         let cpu = local_stats(&f, UnitMap::IDENTITY, r, &NoProgress).unwrap();
         let gpu = vao::gpu::local_stats(ctx, &f, UnitMap::IDENTITY, r as u32).unwrap();
         for (twin, s) in [("cpu", cpu), ("gpu", gpu)] {
+            let s = s.view();
             let (mut worst, mut smallest) = (0.0f64, f64::INFINITY);
             for i in 0..x.len() {
                 let want = second[i] - mean[i] * mean[i];

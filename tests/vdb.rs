@@ -202,6 +202,7 @@ fn the_writer_refuses_bad_grids_and_leaves_nothing() {
         spacing: Vec3::ONE,
         origin: Vec3::ZERO,
         values,
+        map: None,
         background: 0.0,
         class: Default::default(),
         padded: true,

@@ -73,8 +73,9 @@ pub fn ao_volume<'py>(
     let compute = compute(py, device)?;
     let (scene, volume) = scene_volume(py, &scene.inner, volume)?;
     let scene = &*scene;
+    // A volume loaded here is given away to the method (classified in place where it can be).
     let ao = with_progress(py, progress, |report| {
-        ao::ao_volume(&compute, &volume, &scene.classification, &params, report)
+        ao::ao_volume(&compute, volume, &scene.classification, &params, report)
     })?;
     let grids = PyDict::new(py);
     grids.set_item(AO_GRID, PyVolume::from(ao.openness))?;

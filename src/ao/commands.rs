@@ -10,6 +10,7 @@ use crate::gpu::{Compute, DeviceChoice};
 use crate::pipeline::{stem, write_ao};
 use crate::progress::{notice, report_written, say, Bar};
 use crate::scene::Scene;
+use std::borrow::Cow;
 use std::path::Path;
 use std::time::Instant;
 
@@ -39,7 +40,15 @@ pub fn ao_volume(
     };
     let bar = Bar::new(quiet, 1, "ao volume");
     let started = Instant::now();
-    let ao = super::ao_volume(&compute, &volume, &parsed.classification, params, &bar)?;
+    let dims = volume.dims();
+    // The volume is given away: the method's field is made from it in place where it can be.
+    let ao = super::ao_volume(
+        &compute,
+        Cow::Owned(volume),
+        &parsed.classification,
+        params,
+        &bar,
+    )?;
     let ao_ms = started.elapsed().as_secs_f64() * 1e3;
     bar.finish();
     let reach = match params.method {
@@ -59,7 +68,7 @@ pub fn ao_volume(
         "radius_voxels": params.radius,
         "field": params.field,
         "convention": params.convention,
-        "dims": volume.dims(),
+        "dims": dims,
         "device": on,
         "ao_ms": ao_ms,
     });

@@ -22,6 +22,7 @@ use crate::gpu::Compute;
 use crate::progress::Progress;
 use crate::volume::Volume;
 use serde::{Deserialize, Serialize};
+use std::borrow::Cow;
 use sweep::geometric::GeometricParams;
 use sweep::sdf::SdfParams;
 use vao::{AoVolume, Estimator, FieldKind, ScalarField, VaoParams};
@@ -261,13 +262,13 @@ impl AoVolumeParams {
     /// parameters: the raw values at `iso`, or the classified extinction at half its maximum.
     fn surface(
         &self,
-        volume: &Volume,
+        volume: Cow<'_, Volume>,
         classification: &Classification,
     ) -> Result<(Volume, SdfParams)> {
         let (field, iso) = match self.iso {
-            Some(iso) => (volume.clone(), iso),
+            Some(iso) => (volume.into_owned(), iso),
             None => {
-                let extinction = classification.extinction(volume)?;
+                let extinction = classification.into_extinction(volume)?;
                 let (_, max) = extinction.value_range();
                 if max <= 0.0 {
                     return Err(Error::Volume(
@@ -292,10 +293,11 @@ impl AoVolumeParams {
 /// The AO volume of a classified volume: `openness` (1 = unoccluded, in `params.convention`) on
 /// its grid, and the local variance, signed distance and octant visibilities when the method
 /// gives them, on `compute` (VAO's exact count always on the CPU, the geometric sweep's signed
-/// distance too).
+/// distance too). An owned `volume` is consumed as the method's field is made from it, so that
+/// the peak holds the field, not the volume beside it.
 pub fn ao_volume(
     compute: &Compute,
-    volume: &Volume,
+    volume: Cow<'_, Volume>,
     classification: &Classification,
     params: &AoVolumeParams,
     progress: &dyn Progress,
@@ -303,7 +305,7 @@ pub fn ao_volume(
     params.validate()?;
     if let Some(vao) = params.vao() {
         let field = ScalarField::new(volume, classification, params.field)?;
-        let mut ao = vao::ao_volume(compute, &field, &vao, progress)?;
+        let mut ao = vao::ao_volume(compute, Cow::Owned(field), &vao, progress)?;
         ao.openness = params.convention.apply(params.method, ao.openness)?;
         return Ok(ao);
     }
@@ -324,7 +326,7 @@ pub fn ao_volume(
             octants: swept.octants.unwrap_or_default(),
         });
     }
-    let extinction = classification.extinction(volume)?;
+    let extinction = classification.into_extinction(volume)?;
     Ok(AoVolume::new(
         sweep::visibility(compute, &extinction, progress)?,
         None,

@@ -21,6 +21,7 @@ use crate::error::{Error, Result};
 use crate::volume::Volume;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
+use std::borrow::Cow;
 
 /// How control-point and widget value positions are expressed.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
@@ -136,27 +137,33 @@ impl Classification {
     /// differs from Occlux's renders (which interpolate values, then classify) where the
     /// transfer function changes quickly between neighbouring voxel values.
     pub fn extinction(&self, volume: &Volume) -> Result<Volume> {
-        let lut = self.bake(volume);
-        let uses_gradient = self.uses_gradient();
-        if !uses_gradient {
+        self.into_extinction(Cow::Borrowed(volume))
+    }
+
+    /// [`Self::extinction`] of a volume that may be given away: an owned volume under a 1D table
+    /// becomes its extinction in place, so the two are never held at once (the AO volumes'
+    /// peak memory); a borrowed one, or any under a 2D table (which reads neighbours for the
+    /// gradient), is classified into a new grid.
+    pub fn into_extinction(&self, volume: Cow<'_, Volume>) -> Result<Volume> {
+        let lut = self.bake(&volume);
+        let (dims, spacing, origin) = (volume.dims(), volume.spacing(), volume.origin());
+        if !self.uses_gradient() {
             // A 1D table needs only each voxel's own value: one contiguous, parallel map.
-            let values = volume
-                .values()
-                .par_iter()
-                .map(|&v| lut.lookup(v, 0.0).sigma_t)
-                .collect();
-            return Volume::new(volume.dims(), volume.spacing(), volume.origin(), values);
+            let sigma_t = |v: f32| lut.lookup(v, 0.0).sigma_t;
+            let values = match volume {
+                Cow::Owned(volume) => {
+                    let mut values = volume.into_values();
+                    values.par_iter_mut().for_each(|v| *v = sigma_t(*v));
+                    values
+                }
+                Cow::Borrowed(volume) => volume.values().par_iter().map(|&v| sigma_t(v)).collect(),
+            };
+            return Volume::new(dims, spacing, origin, values);
         }
-        let (origin, spacing) = (volume.origin(), volume.spacing());
-        Volume::from_fn(volume.dims(), spacing, origin, |p| {
+        Volume::from_fn(dims, spacing, origin, |p| {
             let c = ((p - origin) / spacing).round();
             let v = volume.at(c.x as usize, c.y as usize, c.z as usize);
-            let g = if uses_gradient {
-                volume.gradient(p).length()
-            } else {
-                0.0
-            };
-            lut.lookup(v, g).sigma_t
+            lut.lookup(v, volume.gradient(p).length()).sigma_t
         })
     }
 

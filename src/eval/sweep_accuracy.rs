@@ -17,6 +17,7 @@ use crate::render::reference::Estimator;
 use crate::scene::Scene;
 use glam::Vec3;
 use serde::Serialize;
+use std::borrow::Cow;
 use std::path::PathBuf;
 use std::time::Instant;
 
@@ -164,7 +165,7 @@ pub fn run(args: &SweepAccuracyArgs, quiet: bool) -> Result<()> {
             let started = Instant::now();
             let ao = ao::ao_volume(
                 &compute,
-                &volume,
+                Cow::Borrowed(&volume),
                 &scene.classification,
                 &params,
                 &NoProgress,

@@ -17,6 +17,7 @@ use crate::volume::Volume;
 use rand::Rng;
 use rand_pcg::Pcg32;
 use serde::Serialize;
+use std::borrow::Cow;
 use std::path::PathBuf;
 
 /// How one estimate agrees with one reference over the sampled voxels.
@@ -83,7 +84,7 @@ pub fn measure(
     classification: &Classification,
     params: &AccuracyParams,
 ) -> Result<AccuracyRow> {
-    let field = ScalarField::new(volume, classification, params.field)?;
+    let field = ScalarField::new(Cow::Borrowed(volume), classification, params.field)?;
     // Matter is positive extinction, whatever field the estimates run on.
     let value_field_extinction;
     let matter = match params.field {
@@ -121,6 +122,7 @@ pub fn measure(
         agreements.push(agreement("exact", "monte-carlo", &exact, &mc));
     }
     let [nx, ny, _] = field.values.dims();
+    let stats = stats.view();
     for estimator in FAST {
         let at: Vec<f32> = voxels
             .iter()

@@ -11,6 +11,7 @@ use crate::progress::NoProgress;
 use crate::scene::{Scene, SourceKind};
 use crate::volume::Volume;
 use serde::Serialize;
+use std::borrow::Cow;
 use std::path::{Path, PathBuf};
 
 /// The engine scene supplies the classification.
@@ -90,7 +91,11 @@ pub fn run(args: &VaoBenchArgs, quiet: bool) -> Result<()> {
     let mut scene = Scene::parse(BENCH_SCENE, Path::new("."))?;
     scene.volume.kind = SourceKind::File(args.volume.clone());
     let volume = crop_z(&scene.load_volume()?, args.slices)?;
-    let field = ScalarField::new(&volume, &scene.classification, FieldKind::Extinction)?;
+    let field = ScalarField::new(
+        Cow::Borrowed(&volume),
+        &scene.classification,
+        FieldKind::Extinction,
+    )?;
     let mut rows = vec![];
     for compute in devices(args.device, quiet)? {
         let mut first = None;
@@ -101,7 +106,7 @@ pub fn run(args: &VaoBenchArgs, quiet: bool) -> Result<()> {
                 variance: false,
             };
             let timing = timed(args.repeats, || {
-                ao_volume(&compute, &field, &params, &NoProgress)
+                ao_volume(&compute, Cow::Borrowed(&field), &params, &NoProgress)
             })?;
             let base = *first.get_or_insert(timing.median_ms);
             let row = Row {

@@ -16,6 +16,7 @@ use crate::render::raycast::{
 };
 use crate::render::{Grid, MethodInput, Rendered};
 use serde::{Deserialize, Serialize};
+use std::borrow::Cow;
 
 /// The AO volume's grid, and its local variance's.
 pub const AO_GRID: &str = "ao";
@@ -439,7 +440,7 @@ pub fn render(input: &MethodInput, params: &AoParams) -> Result<Rendered> {
     }
     let ao = ao_volumes::ao_volume(
         compute,
-        input.volume,
+        Cow::Borrowed(input.volume),
         input.classification,
         &volume_params,
         progress,

@@ -35,6 +35,7 @@ use crate::volume::{self, LoadOptions, Volume};
 use glam::Vec3;
 use serde::{Deserialize, Serialize};
 use serde_json::Value;
+use std::borrow::Cow;
 use std::path::{Path, PathBuf};
 
 /// What a series writes for each frame; as data (the manifest, the Python package's keyword
@@ -602,16 +603,16 @@ pub fn run_frame(
         let ao = match options.ao_params()? {
             Some(params) => Some(ao::ao_volume(
                 compute,
-                volume,
+                Cow::Borrowed(volume),
                 &scene.classification,
                 &params,
                 &NoProgress,
             )?),
             None => None,
         };
-        let extinction = scene.classification.extinction(volume)?;
+        let density = pipeline::ExportDensity::new(&scene.classification, volume)?;
         let method_grids = rendered.as_ref().map_or(&[][..], |r| &r.grids[..]);
-        let mut grids = pipeline::export_grids(method_grids, &extinction, volume);
+        let mut grids = pipeline::export_grids(method_grids, &density, volume);
         if let Some(ao) = &ao {
             grids.push(crate::export::vdb::VdbGrid::from_volume(
                 AO_GRID,

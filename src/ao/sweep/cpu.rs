@@ -1,17 +1,18 @@
-//! CPU twin of the sweep: one sequential pass per octant over a grid padded by one voxel of
-//! empty space (so no step needs a bounds check), rows of contiguous memory; the octants run in
-//! parallel, as many at a time as there are threads, each batch added into the sum in octant
-//! order before the next starts: so the grids alive are the sum and one per thread, not all
-//! eight (`ao --method sweep-physical` on the 512^3 phantom, 2 threads: 11.1x the dense volume
-//! with all eight in flight), and the bytes are the same with any number of threads.
-//! (Parallel rows by anti-diagonals within one octant held two grids but ran 1.7x slower: rows
-//! of one anti-diagonal lie far apart in memory.)
+//! CPU twin of the sweep, slice by slice so that its memory is the output and a few slices:
+//! the four octants that look up z sweep the slices downwards, the four that look down
+//! upwards. Each octant's V_s at a slice depends only on that slice and the one before it in
+//! the sweep's order, so an octant keeps two padded slices of V_s (padding 1: empty space) and
+//! the half-step transmittances are made for the slice as it is reached; the four octants of a
+//! half sweep the slice in parallel and are added into the output in octant order, so the
+//! bytes are the same with any number of threads. (Holding one dense grid per octant in
+//! flight, three dense half-step grids and a padded sum took 8.1x the dense volume on the
+//! 512^3 phantom with 2 threads; one thread per octant and whole-grid sweeps made it no faster.)
 //!
-//! Within a row the six steps that leave it read rows already swept, so their sum is a
-//! vectorisable loop over the row; the step along the row itself is a first-order recurrence,
-//! swept in order.
+//! Within a row the six steps that leave it read rows already swept (the row before in this
+//! slice, or the slice before), so their sum is a vectorisable loop over the row; the step
+//! along the row itself is a first-order recurrence, swept in order.
 
-use super::padded::{octant_signs, sweep_order, Padded};
+use super::padded::{octant_signs, sweep_order};
 use super::{Stencil, STEPS};
 use crate::error::{Error, Result};
 use crate::progress::Progress;
@@ -19,49 +20,83 @@ use crate::volume::Volume;
 use rayon::prelude::*;
 
 /// The visibility volume of `extinction` (sigma_t per world unit at each voxel centre): the
-/// mean of the eight octant visibilities, on the same grid. `progress` counts octants.
+/// mean of the eight octant visibilities, on the same grid. `progress` counts slices of the
+/// two halves.
 pub fn visibility(extinction: &Volume, progress: &dyn Progress) -> Result<Volume> {
     let stencil = super::validate(extinction)?;
     let dims = extinction.dims();
-    let halves = HalfSteps::new(extinction, &stencil);
+    let [nx, ny, nz] = dims;
+    let slice = nx * ny;
+    let shape = SliceShape { nx, ny };
     let signs = octant_signs();
-    let octants: Vec<usize> = (0..signs.len()).collect();
-    let mut sum: Option<Padded> = None;
-    for batch in octants.chunks(rayon::current_num_threads().max(1)) {
-        if progress.cancelled() {
-            return Err(Error::Cancelled);
-        }
-        let swept: Vec<Padded> = batch
-            .par_iter()
-            .map(|&o| sweep_octant(dims, &halves, &stencil, signs[o]))
+    let mut sum = vec![0.0f32; slice * nz];
+    // Octants 0-3 look up z and 4-7 down (octant_signs): one half each.
+    for (half, octants) in [0..4, 4..8].into_iter().enumerate() {
+        let sz = signs[octants.start][2];
+        let mut swept: Vec<OctantSlices> = octants
+            .map(|o| OctantSlices::new(shape, signs[o]))
             .collect();
-        for v in swept {
-            match &mut sum {
-                None => sum = Some(v),
-                Some(sum) => sum
-                    .values
-                    .par_iter_mut()
-                    .zip(&v.values)
-                    .for_each(|(x, y)| *x += y),
+        let mut halves = HalfSteps::new(shape, &stencil);
+        for (n, k) in sweep_order(nz, sz).enumerate() {
+            if progress.cancelled() {
+                return Err(Error::Cancelled);
             }
+            halves.advance(&extinction.values()[k * slice..][..slice]);
+            swept
+                .par_iter_mut()
+                .for_each(|octant| octant.sweep_slice(&halves, &stencil));
+            let out = &mut sum[k * slice..][..slice];
+            for octant in &swept {
+                octant.add_current(out);
+            }
+            progress.update((half * nz + n + 1) as u64, 2 * nz as u64);
         }
-        progress.update(batch[batch.len() - 1] as u64 + 1, signs.len() as u64);
     }
-    let sum = sum.expect("every octant was swept");
-    let values = sum.unpad(|v| (v / 8.0).clamp(0.0, 1.0));
-    Volume::new(dims, extinction.spacing(), extinction.origin(), values)
+    for v in &mut sum {
+        *v = (*v / 8.0).clamp(0.0, 1.0);
+    }
+    Volume::new(dims, extinction.spacing(), extinction.origin(), sum)
 }
 
-/// exp(-sigma_t |n| / 2) per voxel for each distinct step length (a cubic grid has three:
-/// faces, edges, the corner), padded with 1 (empty space): the transmittance over half a step.
+/// A slice of `nx` x `ny` voxels padded by one on each side, x fastest.
+#[derive(Clone, Copy)]
+struct SliceShape {
+    nx: usize,
+    ny: usize,
+}
+
+impl SliceShape {
+    fn len(self) -> usize {
+        (self.nx + 2) * (self.ny + 2)
+    }
+
+    /// Index of voxel (0, j) of the unpadded slice.
+    fn row(self, j: usize) -> usize {
+        1 + (self.nx + 2) * (j + 1)
+    }
+
+    /// Index offset of a step (dx, dy) within a slice.
+    fn offset(self, dx: i32, dy: i32) -> isize {
+        dx as isize + (self.nx + 2) as isize * dy as isize
+    }
+}
+
+/// exp(-sigma_t |n| / 2) per voxel of the slice being swept and of the one before it, for each
+/// distinct step length (a cubic grid has three: faces, edges, the corner), padded with 1
+/// (empty space): the transmittance over half a step. Before the first slice, the one before
+/// is empty space.
 struct HalfSteps {
-    grids: Vec<Padded>,
-    /// The grid of each of the seven steps.
+    shape: SliceShape,
+    lengths: Vec<f32>,
+    /// The length of each of the seven steps, as an index into `lengths`.
     of_step: [usize; 7],
+    /// Per length, the slice being swept and the one before it.
+    current: Vec<Vec<f32>>,
+    before: Vec<Vec<f32>>,
 }
 
 impl HalfSteps {
-    fn new(extinction: &Volume, stencil: &Stencil) -> Self {
+    fn new(shape: SliceShape, stencil: &Stencil) -> Self {
         let mut lengths: Vec<f32> = Vec::new();
         let of_step = stencil.lengths.map(|l| {
             lengths.iter().position(|&m| m == l).unwrap_or_else(|| {
@@ -69,48 +104,97 @@ impl HalfSteps {
                 lengths.len() - 1
             })
         });
-        let grids = lengths
-            .par_iter()
-            .map(|&length| {
-                Padded::map(extinction.dims(), extinction.values(), 1.0, |sigma| {
-                    (-0.5 * sigma * length).exp()
-                })
-            })
-            .collect();
-        Self { grids, of_step }
+        let empty = vec![vec![1.0f32; shape.len()]; lengths.len()];
+        Self {
+            shape,
+            lengths,
+            of_step,
+            current: empty.clone(),
+            before: empty,
+        }
     }
 
-    fn of(&self, step: usize) -> &[f32] {
-        &self.grids[self.of_step[step]].values
+    /// Moves on to the slice of extinction `sigma` (unpadded, x fastest).
+    fn advance(&mut self, sigma: &[f32]) {
+        std::mem::swap(&mut self.current, &mut self.before);
+        let shape = self.shape;
+        self.current
+            .par_iter_mut()
+            .zip(&self.lengths)
+            .for_each(|(grid, &length)| {
+                for (j, row) in sigma.chunks(shape.nx).enumerate() {
+                    let start = shape.row(j);
+                    for (t, &s) in grid[start..start + shape.nx].iter_mut().zip(row) {
+                        *t = (-0.5 * s * length).exp();
+                    }
+                }
+            });
+    }
+
+    /// Step `step`'s half-step transmittances on the slice being swept, or on the one before.
+    fn of(&self, step: usize, before: bool) -> &[f32] {
+        let length = self.of_step[step];
+        if before {
+            &self.before[length]
+        } else {
+            &self.current[length]
+        }
     }
 }
 
-/// V_s for the octant of `signs` (each +1 or -1), padded with 1.
-fn sweep_octant(
-    dims: [usize; 3],
-    halves: &HalfSteps,
-    stencil: &Stencil,
+/// One octant's V_s on the slice being swept and on the one before it, padded with 1.
+struct OctantSlices {
+    shape: SliceShape,
     signs: [i32; 3],
-) -> Padded {
-    let [nx, ny, nz] = dims;
-    let mut v = Padded::new(dims, 1.0);
-    let steps = STEPS.map(|s| [s[0] * signs[0], s[1] * signs[1], s[2] * signs[2]]);
-    let offsets = steps.map(|s| v.offset(s));
-    let mut off_row = vec![0.0f32; nx];
-    let mut along = vec![0.0f32; nx];
-    for k in sweep_order(nz, signs[2]) {
-        for j in sweep_order(ny, signs[1]) {
-            let start = v.index(0, j, k);
+    current: Vec<f32>,
+    before: Vec<f32>,
+    /// Per step: whether its neighbour lies on the slice before, and its offset in a slice.
+    steps: [(bool, isize); 7],
+    /// Per voxel of a row: the sum over the six steps that leave the row, and the weighted
+    /// transmittance of the step along it.
+    off_row: Vec<f32>,
+    along: Vec<f32>,
+}
+
+impl OctantSlices {
+    fn new(shape: SliceShape, signs: [i32; 3]) -> Self {
+        Self {
+            shape,
+            signs,
+            current: vec![1.0; shape.len()],
+            before: vec![1.0; shape.len()],
+            steps: STEPS.map(|[x, y, z]| (z != 0, shape.offset(x * signs[0], y * signs[1]))),
+            off_row: vec![0.0; shape.nx],
+            along: vec![0.0; shape.nx],
+        }
+    }
+
+    /// Sweeps the slice that `halves` has moved on to, rows away from the light.
+    fn sweep_slice(&mut self, halves: &HalfSteps, stencil: &Stencil) {
+        let Self {
+            shape,
+            signs,
+            current,
+            before,
+            steps,
+            off_row,
+            along,
+        } = self;
+        std::mem::swap(current, before);
+        let nx = shape.nx;
+        for j in sweep_order(shape.ny, signs[1]) {
+            let start = shape.row(j);
             // Steps 1..7 leave the row: their rows are already swept. One pass over the row
             // sums them in step order (as the GPU twin does).
             let rows: [(&[f32], &[f32], &[f32]); 6] = std::array::from_fn(|n| {
                 let s = n + 1;
-                let half = halves.of(s);
-                let from = (start as isize + offsets[s]) as usize;
+                let (on_before, offset) = steps[s];
+                let from = (start as isize + offset) as usize;
+                let seen: &[f32] = if on_before { before } else { current };
                 (
-                    &half[start..start + nx],
-                    &half[from..from + nx],
-                    &v.values[from..from + nx],
+                    &halves.of(s, false)[start..start + nx],
+                    &halves.of(s, on_before)[from..from + nx],
+                    &seen[from..from + nx],
                 )
             });
             let w: [f32; 6] = std::array::from_fn(|n| stencil.weights[n + 1]);
@@ -123,8 +207,8 @@ fn sweep_octant(
                 *acc = sum;
             }
             // Step 0 stays in the row: V(i) = off(i) + w0 tau0(i) V(i + sx), in order.
-            let half = halves.of(0);
-            let from = (start as isize + offsets[0]) as usize;
+            let half = halves.of(0, false);
+            let from = (start as isize + steps[0].1) as usize;
             for ((t, a), b) in along
                 .iter_mut()
                 .zip(&half[start..start + nx])
@@ -132,7 +216,7 @@ fn sweep_octant(
             {
                 *t = stencil.weights[0] * a * b;
             }
-            let row = &mut v.values[start - 1..start + nx + 1];
+            let row = &mut current[start - 1..start + nx + 1];
             if signs[0] > 0 {
                 for i in (0..nx).rev() {
                     row[i + 1] = off_row[i] + along[i] * row[i + 2];
@@ -144,7 +228,17 @@ fn sweep_octant(
             }
         }
     }
-    v
+
+    /// Adds V_s on the slice just swept into `out` (the unpadded slice, x fastest).
+    fn add_current(&self, out: &mut [f32]) {
+        let nx = self.shape.nx;
+        for (j, row) in out.chunks_mut(nx).enumerate() {
+            let start = self.shape.row(j);
+            for (o, v) in row.iter_mut().zip(&self.current[start..start + nx]) {
+                *o += v;
+            }
+        }
+    }
 }
 
 #[cfg(test)]

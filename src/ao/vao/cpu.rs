@@ -1,12 +1,16 @@
-//! CPU twin of the VAO volume: the statistics of `stats`, then the estimate per voxel.
+//! CPU twin of the VAO volume: the statistics of `stats`, streamed slice by slice, and the
+//! estimate per voxel written over the field's own slice as each is finished, so that the
+//! peak holds the field and a few slices (an owned field is consumed; a borrowed one is
+//! copied first).
 
-use super::estimate::{openness, variance, BoxStats};
-use super::stats::{local_stats, LocalStats};
+use super::estimate::{openness, variance};
+use super::stats::stream_stats;
 use super::{AoVolume, ScalarField, UnitMap, VaoParams};
 use crate::error::Result;
 use crate::progress::Progress;
 use crate::volume::Volume;
 use rayon::prelude::*;
+use std::borrow::Cow;
 
 /// Voxels per parallel job of the estimate.
 const CHUNK: usize = 16 * 1024;
@@ -14,47 +18,46 @@ const CHUNK: usize = 16 * 1024;
 /// Computes the AO volume of `field` mapped by `map` on the CPU (`params` validated by the
 /// caller); the variance is that of the mapped field.
 pub fn ao_volume(
-    field: &ScalarField,
+    field: Cow<'_, ScalarField>,
     map: UnitMap,
     params: &VaoParams,
     progress: &dyn Progress,
 ) -> Result<AoVolume> {
-    let LocalStats {
-        min: mut open,
-        max,
-        mean,
-        second,
-    } = local_stats(field, map, params.radius as usize, progress)?;
-    let values = field.values.values();
-    // The openness takes the minimum's place, voxel by voxel once it is read: one dense grid
-    // fewer at the peak (the variance below still reads mean and second moment).
-    open.par_chunks_mut(CHUNK).enumerate().for_each(|(c, out)| {
-        let start = c * CHUNK;
-        for (n, o) in out.iter_mut().enumerate() {
-            let i = start + n;
-            let box_stats = BoxStats {
-                min: *o,
-                max: max[i],
-                mean: mean[i],
-                second: second[i],
-            };
-            *o = openness(params.estimator, map.apply(values[i]), &box_stats);
-        }
-    });
-    drop(max);
-    let grid = |v| {
-        let f = &field.values;
-        Volume::new(f.dims(), f.spacing(), f.origin(), v)
+    let grid = &field.values;
+    let (dims, spacing, origin) = (grid.dims(), grid.spacing(), grid.origin());
+    let outside = field.outside;
+    let mut values = match field {
+        Cow::Owned(field) => field.values.into_values(),
+        Cow::Borrowed(field) => field.values.values().to_vec(),
     };
-    let variance = if params.variance {
-        let v = mean
-            .par_iter()
-            .zip(&second)
-            .map(|(&mean, &second)| variance(mean, second))
-            .collect();
-        Some(grid(v)?)
-    } else {
-        None
-    };
-    Ok(AoVolume::new(grid(open)?, variance))
+    let slice = dims[0] * dims[1];
+    let mut variances = params.variance.then(|| vec![0.0f32; values.len()]);
+    stream_stats(
+        &mut values,
+        dims,
+        map,
+        outside,
+        params.radius as usize,
+        progress,
+        |k, stats, open| {
+            open.par_chunks_mut(CHUNK).enumerate().for_each(|(c, out)| {
+                for (n, o) in out.iter_mut().enumerate() {
+                    let i = c * CHUNK + n;
+                    *o = openness(params.estimator, map.apply(*o), &stats.at(i));
+                }
+            });
+            if let Some(v) = &mut variances {
+                for ((v, &mean), &second) in v[k * slice..][..slice]
+                    .iter_mut()
+                    .zip(stats.mean)
+                    .zip(stats.second)
+                {
+                    *v = variance(mean, second);
+                }
+            }
+        },
+    )?;
+    let grid = |v| Volume::new(dims, spacing, origin, v);
+    let variance = variances.map(grid).transpose()?;
+    Ok(AoVolume::new(grid(values)?, variance))
 }

@@ -33,6 +33,7 @@ use crate::error::{Error, Result};
 use crate::gpu::Compute;
 use crate::progress::Progress;
 use crate::volume::Volume;
+use std::borrow::Cow;
 
 pub use estimate::Estimator;
 
@@ -65,6 +66,7 @@ impl std::str::FromStr for FieldKind {
 }
 
 /// A scalar field on a voxel grid and the value it takes outside the grid.
+#[derive(Clone, Debug)]
 pub struct ScalarField {
     pub values: Volume,
     pub outside: f32,
@@ -72,15 +74,21 @@ pub struct ScalarField {
 
 impl ScalarField {
     /// The field of `kind` for a volume and its classification.
-    pub fn new(volume: &Volume, classification: &Classification, kind: FieldKind) -> Result<Self> {
+    /// An owned volume is consumed (classified in place, or kept as the raw field), so that the
+    /// volume and its field are not both held.
+    pub fn new(
+        volume: Cow<'_, Volume>,
+        classification: &Classification,
+        kind: FieldKind,
+    ) -> Result<Self> {
         Ok(match kind {
             FieldKind::Extinction => Self {
-                values: classification.extinction(volume)?,
+                values: classification.into_extinction(volume)?,
                 outside: 0.0,
             },
             FieldKind::Value => Self {
-                values: volume.clone(),
                 outside: volume.value_range().0,
+                values: volume.into_owned(),
             },
         })
     }
@@ -194,21 +202,23 @@ impl AoVolume {
 
 /// Computes the AO volume of `field` on the chosen device. The exact estimator is a reference
 /// that counts voxels; it runs on the CPU whatever the device.
+///
+/// The CPU twin writes the openness over an owned field's values (a borrowed one is copied).
 pub fn ao_volume(
     compute: &Compute,
-    field: &ScalarField,
+    field: Cow<'_, ScalarField>,
     params: &VaoParams,
     progress: &dyn Progress,
 ) -> Result<AoVolume> {
     params.validate()?;
     if params.estimator == Estimator::Exact {
-        let openness = exact::exact_volume(field, params.radius, progress)?;
+        let openness = exact::exact_volume(&field, params.radius, progress)?;
         return Ok(AoVolume::new(openness, None));
     }
     let map = field.unit_map();
     let mut ao = match compute {
         Compute::Cpu => cpu::ao_volume(field, map, params, progress)?,
-        Compute::Gpu(ctx) => gpu::ao_volume(ctx, field, map, params, progress)?,
+        Compute::Gpu(ctx) => gpu::ao_volume(ctx, &field, map, params, progress)?,
     };
     if let Some(variance) = ao.variance.take() {
         let v = variance
