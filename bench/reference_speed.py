@@ -27,7 +27,7 @@ from pathlib import Path
 
 import numpy as np
 import occlux
-from occlux.cycles import read_channels
+from occlux.blender import read_channels
 
 ROOT = Path(__file__).resolve().parents[1]
 BENCH = ROOT.parent / "shared" / "bench" / "engine-cycles"

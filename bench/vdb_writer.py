@@ -21,7 +21,7 @@ from pathlib import Path
 
 import numpy as np
 import occlux
-from occlux.cycles import bundled_module
+from occlux.blender import bundled_module
 
 REPO = Path(__file__).resolve().parents[1]
 

@@ -1,5 +1,5 @@
 """The Volume object's material and the world it needs: the transfer function on the `value`
-grid as Occlux classifies it (the mapping `occlux.cycles` verifies against Cycles,
+grid as Occlux classifies it (the mapping `occlux.blender` renders with Cycles,
 docs/cycles-mapping.md: the trilinear value through the control points, extinction per scene
 unit), and the `ao` grid wired in.
 
@@ -20,7 +20,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 
 import bpy
-from occlux.cycles.material import box_mask, color_ramp
+from occlux.blender.material import box_mask, color_ramp
 
 AO_SHADINGS = ("AMBIENT", "ALBEDO")
 AO_FACTOR = "Occlux AO factor"

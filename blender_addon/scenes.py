@@ -2,7 +2,7 @@
 as the scene file's tree (plain Python data: `volume`, `classification`, `camera`, `lights`,
 `background`, `render`), which `occlux.Scene.from_dict` validates as it validates a file. Read on
 the main thread; the jobs hand the tree (or the scene built from it) to the core and to the
-Cycles harness (occlux.cycles), which map it back onto Blender the same way."""
+Cycles mapping (`occlux.blender`), which map it back onto Blender the same way."""
 
 from __future__ import annotations
 

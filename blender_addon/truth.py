@@ -1,9 +1,9 @@
 """Cycles' truth of an Occlux figure, made from the user's own scene: the dataset's Volume object
 with its material, the scene's camera, world and the lamps the checked method renders. They go
-into a scene of the harness (named with `occlux.cycles.PREFIX`, so that
-`occlux.cycles.remove_built` removes it and nothing of the user's): the camera and the lamps
+into a scene of the Cycles mapping (named with `occlux.blender.PREFIX`, so that
+`occlux.blender.remove_built` removes it and nothing of the user's): the camera and the lamps
 linked as they are, the volume object, its material and the world as copies, set up as the
-harness sets up its own scenes (unbiased CPU path tracing into a linear EXR).
+mapping sets up its own scenes (unbiased CPU path tracing into a linear EXR).
 
 The copies differ from the user's data in what the check compares, and only there:
 - the AO baked into the material (the `ao` grid's AMBIENT emission or ALBEDO darkening) is off,
@@ -20,7 +20,7 @@ from collections.abc import Iterable
 from dataclasses import dataclass
 
 import bpy
-import occlux.cycles as oc
+import occlux.blender as ob
 from mathutils import Matrix
 
 from . import material, scenes
@@ -32,7 +32,7 @@ RENDERS_NOTHING = {"CAMERA", "LIGHT", "EMPTY", "ARMATURE", "LATTICE", "SPEAKER",
 
 @dataclass(frozen=True)
 class Truth:
-    """The harness's scene of the figure, what it holds of the user's scene (for the report)
+    """The Cycles mapping's scene of the figure, what it holds of the user's scene (for the report)
     and notes on what it leaves out or where Occlux's scene differs."""
 
     scene: bpy.types.Scene
@@ -54,8 +54,8 @@ def figure_truth(
     first."""
     kinds = set(kinds)
     user = context.scene
-    oc.remove_built()
-    truth = bpy.data.scenes.new(f"{oc.PREFIX}-figure")
+    ob.remove_built()
+    truth = bpy.data.scenes.new(f"{ob.PREFIX}-figure")
     volume = _volume_copy(obj, g)
     truth.collection.objects.link(volume)
     truth.collection.objects.link(user.camera)
@@ -69,14 +69,14 @@ def figure_truth(
         truth.collection.objects.link(lamp)
     if user.world is not None:
         truth.world = user.world.copy()
-        truth.world.name = f"{oc.PREFIX}-world"
+        truth.world.name = f"{ob.PREFIX}-world"
         if scenes.WORLD in kinds:
             material.all_rays(truth.world)
         else:
             material.camera_only(truth.world)
     truth.frame_current = user.frame_current  # an animated camera or lamp where the user sees it
     truth.render.resolution_x, truth.render.resolution_y = size
-    oc.cycles_settings(truth, bounces)
+    ob.cycles_settings(truth, bounces)
     holds = {
         "volume_object": obj.name,
         "materials": [s.material.name for s in obj.material_slots if s.material],
@@ -94,12 +94,12 @@ def _volume_copy(obj: bpy.types.Object, g: float) -> bpy.types.Object:
     if not any(shadings):
         raise ValueError(f"the volume object '{obj.name}' has no material: load it again")
     copy = obj.copy()
-    copy.name = f"{oc.PREFIX}-volume"
+    copy.name = f"{ob.PREFIX}-volume"
     for slot, shading in zip(copy.material_slots, shadings, strict=True):
         if shading is None:
             continue
         truth_shading = shading.copy()
-        truth_shading.name = f"{oc.PREFIX}-{shading.name}"
+        truth_shading.name = f"{ob.PREFIX}-{shading.name}"
         material.without_ao(truth_shading, g)
         slot.link = "OBJECT"  # the copy's own material; the shared data keeps the user's
         slot.material = truth_shading

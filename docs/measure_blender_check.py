@@ -97,7 +97,7 @@ def main() -> None:
 def measure(bpy, scene, s) -> None:
     """The figures (see the module's docstring), printed."""
     import occlux
-    import occlux.cycles as oc
+    import occlux.blender as ob
 
     from blender_addon import scenes
 
@@ -108,7 +108,7 @@ def measure(bpy, scene, s) -> None:
         line(f"check: {method} vs Cycles ({report['truth']['estimator']})", report, times)
         if method == "ao":  # the sky's truth, as Cycles rendered it from the scene
             exr = Path(s.check_report[: -len("-report.json")] + ".exr")
-            layers = oc.read_channels(exr)[0]
+            layers = ob.read_channels(exr)[0]
             truth = np.stack([layers[f"cycles.{c}"] for c in "RGB"], axis=-1)
             noise = np.stack([layers[f"cycles_stderr.{c}"] for c in "RGB"], axis=-1)
     background = float(np.mean(scenes.world_radiance(scene)))
@@ -119,15 +119,15 @@ def measure(bpy, scene, s) -> None:
     for shading in ("AMBIENT", "ALBEDO"):
         s.ao_shading = shading
         assert bpy.ops.occlux.compute_ao() == {"FINISHED"}, s.status
-        oc.cycles_settings(scene, 0)
-        renders[shading] = oc.render_scene(scene, s.check_spp, s.check_seeds).mean
+        ob.cycles_settings(scene, 0)
+        renders[shading] = ob.render_scene(scene, s.check_spp, s.check_seeds).mean
         figures = occlux.image_error(renders[shading], truth, background, noise)
         line(f"Cycles render, AO wired as {shading}", figures)
     wired = renders["AMBIENT"]
 
     # The AMBIENT render shaded by DOS's occlusion layer: render x (1 - (A - V)).
     assert bpy.ops.occlux.render_dos() == {"FINISHED"}, s.status
-    dos = oc.read_channels(Path(s.output_dir) / "tooth-dos.exr")[0]
+    dos = ob.read_channels(Path(s.output_dir) / "tooth-dos.exr")[0]
     shade = 1.0 - (dos["occlusion.A"] - dos["occlusion.V"])
     inside = dos["occlusion.A"] > 0.005
     kept = float((wired * shade[..., None])[inside].mean() / wired[inside].mean())

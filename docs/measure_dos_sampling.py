@@ -13,7 +13,7 @@ from pathlib import Path
 
 import numpy as np
 import occlux
-from occlux.cycles import read_channels
+from occlux.blender import read_channels
 
 SHARED = Path(__file__).resolve().parents[2] / "shared"
 ENGINE = str(SHARED / "data/scivis/engine.nrrd")

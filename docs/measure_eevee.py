@@ -1,9 +1,11 @@
-"""EEVEE (``occlux.peers.eevee``) on the engine under the chart's three lightings: its error
+"""EEVEE (``occlux_lab.peers.eevee``) on the engine under the chart's three lightings: its error
 against Occlux's Monte Carlo truth at each setting of its quality ladder, and its time, in one
 process (one shader compile). The figures of docs/peers-eevee.md.
 
     PYTHONPATH=plugin/python XDG_RUNTIME_DIR=/tmp .venv/bin/python docs/measure_eevee.py \\
         --size 128 --spp 1024 --out out/eevee-engine
+
+The harness ``occlux_lab`` is not installed: this script puts lab/python on sys.path itself.
 
 Each lighting's scene is written as ``occlux chart`` writes it (src/eval/chart/measure.rs
 ``LightingMode::scene_tree``): the camera at SIZE^2, the volume path absolute, the lights of the
@@ -14,16 +16,20 @@ from __future__ import annotations
 
 import argparse
 import json
+import sys
 import time
 import tomllib
 from pathlib import Path
 
 import numpy as np
 import occlux
-from occlux.cycles.images import read_channels
-from occlux.peers.eevee import render_curve
+from occlux.blender.images import read_channels
 
 REPO = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(REPO / "lab" / "python"))  # occlux_lab, the harness (not installed)
+
+from occlux_lab.peers.eevee import render_curve  # noqa: E402
+
 LIGHTINGS = {"ambient": "ambient", "sun": "single", "multi": "multiple"}
 
 

@@ -3,15 +3,15 @@
 use crate::ao::vao::AoVolume;
 use crate::classify::Classification;
 use crate::error::{Error, Result};
-use crate::export::atomic::{check_writable, write_bytes_atomic, OutputSet};
+use crate::export::atomic::{write_bytes_atomic, OutputSet};
 use crate::export::exr::{render_layers, write_exr, ExrLayer, Precision};
 use crate::export::png::write_png_preview;
 use crate::export::usd::{write_usda, StageDescription};
 use crate::export::vdb::{write_vdb, VdbGrid, VdbOptions};
-use crate::gpu::{Compute, DeviceChoice};
+use crate::gpu::Compute;
 use crate::plan::measure::Subject;
 use crate::plan::{Choice, Planned};
-use crate::progress::{self, report_written, say, Bar, Progress};
+use crate::progress::Progress;
 use crate::render::ao_shaded::{AO_GRID, AO_OCTANT_GRIDS, AO_VARIANCE_GRID, SDF_GRID};
 use crate::render::reference::{Estimator, ReferenceImage, ReferenceParams};
 use crate::render::{Grid, MethodInput, RenderImage, Rendered};
@@ -20,7 +20,6 @@ use crate::volume::Volume;
 use std::borrow::Cow;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
-use std::time::Instant;
 
 /// What `occlux render`, `export` and `demo` write beside the render.
 pub enum Outputs {
@@ -28,65 +27,6 @@ pub enum Outputs {
     Render,
     /// The render, the grids (VDB) and a USD stage.
     Export(VdbOptions),
-}
-
-/// Loads a scene's volume, renders it on `device` with a progress bar, and writes the outputs
-/// into `out_dir` named after `stem`; says what it did unless `quiet`. The body of `occlux
-/// render`, `export` and `demo`.
-pub fn run(
-    scene: &Scene,
-    stem: &str,
-    out_dir: &Path,
-    device: DeviceChoice,
-    options: &OutputOptions,
-    outputs: &Outputs,
-    quiet: bool,
-) -> Result<()> {
-    options.validate()?;
-    // A folder that cannot be written is found before the work, not after it.
-    check_writable(out_dir)?;
-    let (compute, notice) = Compute::resolve(device)?;
-    if let Some(line) = notice {
-        progress::notice(quiet, line);
-    }
-    let started = Instant::now();
-    let loaded = scene.load()?;
-    for line in &loaded.notices {
-        progress::notice(quiet, line);
-    }
-    let volume = &loaded.volume;
-    let scene = &*settle(&loaded.scene, volume, &compute, &|line: &str| {
-        say(quiet, format_args!("{line}"))
-    })?;
-    let [nx, ny, nz] = volume.dims();
-    say(
-        quiet,
-        format_args!(
-            "volume {nx}x{ny}x{nz} loaded in {:.2} s; rendering on {}",
-            started.elapsed().as_secs_f64(),
-            compute.describe()
-        ),
-    );
-    let bar = Bar::new(quiet, scene.camera.height as u64, "rendering");
-    let started = Instant::now();
-    let rendered = render(scene, volume, &compute, &bar)?;
-    bar.finish();
-    let image = &rendered.image;
-    say(
-        quiet,
-        format_args!(
-            "rendered {}x{} in {:.2} s",
-            image.width,
-            image.height,
-            started.elapsed().as_secs_f64()
-        ),
-    );
-    let written = match outputs {
-        Outputs::Render => write_render(image, scene, out_dir, stem, options)?,
-        Outputs::Export(vdb) => export(&rendered, scene, volume, out_dir, stem, options, vdb)?,
-    };
-    report_written(&written, quiet);
-    Ok(())
 }
 
 /// An `auto` scene planned (the planner's progress, what it chose and why, to `say`): the

@@ -7,6 +7,9 @@
 pub trait Progress: Sync {
     fn update(&self, done: u64, total: u64);
 
+    /// What the work is at now ("frame 3"), for a caller that shows it.
+    fn message(&self, _text: &str) {}
+
     /// Whether the caller wants the work abandoned.
     fn cancelled(&self) -> bool {
         false
@@ -26,60 +29,25 @@ impl<F: Fn(u64, u64) + Sync> Progress for F {
     }
 }
 
-/// The command line's progress bar (indicatif), hidden when quiet: what the CLI's commands hand
-/// to the library's long work.
-pub struct Bar(indicatif::ProgressBar);
+/// Where long library work tells its caller how it goes: lines for the user (what it settled
+/// and why) and a progress per stage. The command line prints and draws bars; Python and tests
+/// pass [`Silent`].
+pub trait Report: Sync {
+    /// A line for the user.
+    fn say(&self, line: &str);
 
-impl Bar {
-    /// A bar of `len` units labelled `label`; hidden (drawing nothing) when `quiet`.
-    pub fn new(quiet: bool, len: u64, label: &'static str) -> Self {
-        if quiet {
-            return Self(indicatif::ProgressBar::hidden());
-        }
-        let bar = indicatif::ProgressBar::new(len);
-        bar.set_style(
-            indicatif::ProgressStyle::with_template("{msg} [{bar:40}] {pos}/{len} {elapsed}")
-                .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
-        );
-        bar.set_message(label);
-        Self(bar)
-    }
-
-    /// Shows what the bar's work is at now.
-    pub fn message(&self, text: &str) {
-        self.0.set_message(text.to_owned());
-    }
-
-    /// Removes the bar from the terminal.
-    pub fn finish(&self) {
-        self.0.finish_and_clear();
-    }
+    /// The progress of one stage of `len` units labelled `label`; the stage ends when it is
+    /// dropped.
+    fn stage(&self, label: &str, len: u64) -> Box<dyn Progress + '_>;
 }
 
-impl Progress for Bar {
-    fn update(&self, done: u64, total: u64) {
-        self.0.set_length(total);
-        self.0.set_position(done);
-    }
-}
+/// Reports nothing.
+pub struct Silent;
 
-/// Prints a line for the user unless `quiet`.
-pub fn say(quiet: bool, line: impl std::fmt::Display) {
-    if !quiet {
-        println!("{line}");
-    }
-}
+impl Report for Silent {
+    fn say(&self, _line: &str) {}
 
-/// Lists the files a command wrote, unless `quiet`.
-pub fn report_written(paths: &[std::path::PathBuf], quiet: bool) {
-    for path in paths {
-        say(quiet, format_args!("wrote {}", path.display()));
-    }
-}
-
-/// Prints a notice (which device was picked, and why) on standard error unless `quiet`.
-pub fn notice(quiet: bool, line: impl std::fmt::Display) {
-    if !quiet {
-        eprintln!("{line}");
+    fn stage(&self, _label: &str, _len: u64) -> Box<dyn Progress + '_> {
+        Box::new(NoProgress)
     }
 }

@@ -645,7 +645,8 @@ impl LitPhantom {
             lighting: &self.lighting,
             params,
         };
-        occlux::eval::dos_accuracy::mean_occlusion(&cpu::render(&input, &NoProgress).unwrap())
+        let image = cpu::render(&input, &NoProgress).unwrap();
+        image.factor("occlusion").unwrap().mean()
     }
 }
 

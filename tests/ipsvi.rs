@@ -12,8 +12,8 @@ use occlux::classify::presets::preset;
 use occlux::classify::{
     Classification, ControlPoint, Lut, TransferFunction, TransferFunction1D, ValueUnits,
 };
-use occlux::eval::sweep_accuracy::design_error;
 use occlux::lights::{Light, Lighting};
+use occlux::metric::design_error;
 use occlux::progress::NoProgress;
 use occlux::render::half_angle::{self, HalfAngleInput, HalfAngleParams};
 use occlux::render::ipsvi::{cpu, diffusion, IpsviInput, IpsviParams, Scattering};

@@ -3,6 +3,7 @@
 
 use occlux::classify::Window;
 use occlux::gpu::Compute;
+use occlux::progress::Silent;
 use occlux::scene::Scene;
 use occlux::series::{self, Manifest, Resume, SeriesOptions};
 use occlux::volume::{self, LoadOptions, Volume};
@@ -87,7 +88,7 @@ fn plan(scene: &Path, out: &Path) -> occlux::Result<(Manifest, Resume)> {
         "ball",
         out,
         &SeriesOptions::default(),
-        true,
+        &Silent,
     )
 }
 
@@ -161,7 +162,7 @@ fn every_frame_shares_one_window_camera_and_stage_and_a_rerun_gives_the_same_byt
     let (manifest, resume) = plan(&scene, &a).unwrap();
     assert_eq!(resume, Resume::New);
     assert_eq!(manifest.count, FRAMES);
-    let summary = series::run(&manifest, &a, &Compute::Cpu, true).unwrap();
+    let summary = series::run(&manifest, &a, &Compute::Cpu, &Silent).unwrap();
     assert_eq!(summary.written.len(), FRAMES);
     assert!(summary.failed.is_empty());
 
@@ -210,7 +211,7 @@ fn every_frame_shares_one_window_camera_and_stage_and_a_rerun_gives_the_same_byt
 
     // A second run elsewhere writes the same files.
     let (again, _) = plan(&scene, &b).unwrap();
-    series::run(&again, &b, &Compute::Cpu, true).unwrap();
+    series::run(&again, &b, &Compute::Cpu, &Silent).unwrap();
     let reference = contents(&a);
     assert_eq!(
         reference.len(),
@@ -226,7 +227,7 @@ fn every_frame_shares_one_window_camera_and_stage_and_a_rerun_gives_the_same_byt
     std::fs::remove_file(a.join("ball_0005.vdb")).unwrap();
     let (resumed, resume) = plan(&scene, &a).unwrap();
     assert_eq!(resume, Resume::Resumed);
-    let summary = series::run(&resumed, &a, &Compute::Cpu, true).unwrap();
+    let summary = series::run(&resumed, &a, &Compute::Cpu, &Silent).unwrap();
     let redone: Vec<u32> = summary.written.iter().map(|(f, _)| *f).collect();
     assert_eq!(redone, [5]);
     assert_eq!(summary.complete.len(), FRAMES - 1);
@@ -268,7 +269,7 @@ fn bad_series_are_refused_before_any_work() {
         "ball",
         &out,
         &SeriesOptions::default(),
-        true,
+        &Silent,
     )
     .unwrap_err()
     .to_string();
@@ -306,11 +307,11 @@ fn a_4d_file_is_a_series_of_its_time_steps() {
 
     let (files, one) = (data.path().join("files"), data.path().join("one"));
     let (manifest, _) = plan(&scene, &files).unwrap();
-    series::run(&manifest, &files, &Compute::Cpu, true).unwrap();
+    series::run(&manifest, &files, &Compute::Cpu, &Silent).unwrap();
     let (manifest, _) = plan(&four_d, &one).unwrap();
     let times: Vec<Option<usize>> = manifest.frames.iter().map(|f| f.time).collect();
     assert_eq!(times, [Some(0), Some(1), Some(2), Some(3)]);
-    series::run(&manifest, &one, &Compute::Cpu, true).unwrap();
+    series::run(&manifest, &one, &Compute::Cpu, &Silent).unwrap();
     // The same frames, the same files; only the manifests' sources differ.
     let without_manifest = |dir: &Path| {
         let mut c = contents(dir);

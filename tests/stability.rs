@@ -13,7 +13,7 @@ use common::render::{
     check_finite, finite_problems, range_of, reference_of, render, render_on, scene, Range,
 };
 use glam::Vec3;
-use occlux::eval::sweep_accuracy::design_error;
+use occlux::metric::design_error;
 use occlux::registry::{find, ParamKind, METHODS};
 use occlux::render::reference::{Estimator, ReferenceImage};
 use occlux::render::{RenderImage, Rendered};

@@ -4,9 +4,9 @@
   lamps for IPSVI): DESIGN.md's relative RMSE and bias over the volume's pixels, both times,
   and a map of the difference with a colour key. Cycles renders the user's scene as it stands
   (the dataset's Volume object with its material, the camera, the world, the lamps; see
-  `truth`); without an Occlux Volume object in the scene, the harness `occlux.cycles` maps the
-  panel's classification of the file onto Cycles (docs/cycles-mapping.md).
-- The reference: Occlux's Monte Carlo reference against Cycles' rendering of the harness's
+  `truth`); without an Occlux Volume object in the scene, the Cycles mapping (`occlux.blender`)
+  maps the panel's classification of the file onto Cycles (docs/cycles-mapping.md).
+- The reference: Occlux's Monte Carlo reference against Cycles' rendering of the Cycles
   mapping of the same scene, within noise (z scores).
 Occlux's half runs on the job's thread; Cycles' renders (bpy: the main thread) are the job's
 steps, one render each, with progress and ESC between them."""
@@ -57,7 +57,7 @@ def occlux_side(
     scene: Any, source: scenes.VolumeInput, compute: Callable[[Any], Any]
 ) -> tuple[Path, Path, Any, Any, float]:
     """Occlux's half of a check: loads the scene's volume, writes its `value` grid (what the
-    harness maps onto Cycles) into a new temporary folder, and runs `compute(volume)`, timed.
+    Cycles mapping renders) into a new temporary folder, and runs `compute(volume)`, timed.
     Returns (folder, VDB, volume, result, seconds); on any failure the folder is removed."""
     folder = Path(tempfile.mkdtemp(prefix="occlux-check-"))
     try:
@@ -107,11 +107,11 @@ RENDERS = "Cycles render"
 
 
 def cycles_renders(scene: Any, spp: int, seeds: int) -> Generator[Step, None, Any]:
-    """Cycles' renders of a built scene (`occlux.cycles.render_seeds`) as a job's steps, one
+    """Cycles' renders of a built scene (`occlux.blender.render_seeds`) as a job's steps, one
     render each; returns the CyclesImage."""
-    import occlux.cycles as oc
+    import occlux.blender as ob
 
-    renders = oc.render_seeds(scene, spp, seeds)
+    renders = ob.render_seeds(scene, spp, seeds)
     yield Step(RENDERS, 0, seeds)  # the status says what comes before the first render
     try:
         while True:
@@ -185,16 +185,16 @@ class OCCLUX_OT_check_cycles(OccluxJob, bpy.types.Operator):
         return work
 
     def finish_figure(self, context: bpy.types.Context, figure: Figure) -> Steps:
-        import occlux.cycles as oc
+        import occlux.blender as ob
 
         settings = context.scene.occlux
         spp, seeds = settings.check_spp, settings.check_seeds
         try:
             built = self.truth_scene(context, figure)
-            oc.check_camera(built.scene, figure.scene.describe()["camera"])
+            ob.check_camera(built.scene, figure.scene.describe()["camera"])
             cycles = yield from cycles_renders(built.scene, spp, seeds)
         finally:
-            oc.remove_built()  # the harness's scene, objects, materials and world
+            ob.remove_built()  # the mapping's scene, objects, materials and world
             shutil.rmtree(figure.folder)
         notes = "; ".join(built.notes)
         self._left_out = "; ".join(n for n in (self._left_out, notes) if n)
@@ -239,15 +239,15 @@ class OCCLUX_OT_check_cycles(OccluxJob, bpy.types.Operator):
 
     def truth_scene(self, context: bpy.types.Context, figure: Figure) -> truth.Truth:
         """Cycles' scene of the figure: the user's own (`truth.figure_truth`) when an Occlux
-        Volume object shows the dataset, else the harness's mapping of the file."""
-        import occlux.cycles as oc
+        Volume object shows the dataset, else the Cycles mapping of the file."""
+        import occlux.blender as ob
 
         obj = bpy.data.objects.get(figure.volume_object) if figure.volume_object else None
         if obj is not None:
             return truth.figure_truth(
                 context, obj, figure.kinds, figure.bounces, figure.g, figure.size
             )
-        built = oc.build_scene(
+        built = ob.build_scene(
             figure.scene, figure.vdb, figure.estimator, figure.bounces, figure.g,
             volume=figure.volume,
         )  # fmt: skip
@@ -258,7 +258,7 @@ class OCCLUX_OT_check_cycles(OccluxJob, bpy.types.Operator):
         return truth.Truth(built, {"harness": "the panel's classification of the file"}, [note])
 
     def prepare_reference(self, context: bpy.types.Context) -> Callable[[JobProgress], Reference]:
-        import occlux.cycles as oc
+        import occlux.blender as ob
 
         settings = context.scene.occlux
         source = scenes.selected_source(context)
@@ -271,7 +271,7 @@ class OCCLUX_OT_check_cycles(OccluxJob, bpy.types.Operator):
         def work(progress: JobProgress) -> Reference:
             def compute(volume):
                 return occlux.reference(
-                    scene, estimator=estimator, spp=spp, seed=oc.OCCLUX_SEED, volume=volume,
+                    scene, estimator=estimator, spp=spp, seed=ob.OCCLUX_SEED, volume=volume,
                     progress=progress,
                 )  # fmt: skip
 
@@ -281,23 +281,23 @@ class OCCLUX_OT_check_cycles(OccluxJob, bpy.types.Operator):
         return work
 
     def finish_reference(self, context: bpy.types.Context, ref: Reference) -> Steps:
-        import occlux.cycles as oc
+        import occlux.blender as ob
 
         settings = context.scene.occlux
         estimator, spp, seeds = settings.check_estimator, settings.check_spp, settings.check_seeds
         try:
-            scene = oc.build_scene(ref.scene, ref.vdb, estimator)
+            scene = ob.build_scene(ref.scene, ref.vdb, estimator)
             cycles = yield from cycles_renders(scene, spp, seeds)
         finally:
-            oc.remove_built()  # the harness's scene, objects and world
+            ob.remove_built()  # the mapping's scene, objects and world
             shutil.rmtree(ref.folder)
-        occlux_image = oc.OccluxImage(
+        occlux_image = ob.OccluxImage(
             np.asarray(ref.result.mean, np.float64),
             np.asarray(ref.result.stderr, np.float64),
             {"spp": ref.result.spp},
             {},
         )
-        report = oc.compare(occlux_image, cycles.mean, cycles.stderr)
+        report = ob.compare(occlux_image, cycles.mean, cycles.stderr)
         if not (math.isfinite(report.rmse) and math.isfinite(report.rmse_over_noise)):
             raise ValueError(f"the comparison is not finite:\n{report.table()}")
         stem = f"{ref.stem}-{estimator}"
@@ -308,7 +308,7 @@ class OCCLUX_OT_check_cycles(OccluxJob, bpy.types.Operator):
             "occlux_seconds": ref.seconds,
             "cycles_seconds": cycles.seconds,
         }
-        _, png, js = oc.write_outputs(
+        _, png, js = ob.write_outputs(
             report_dir(settings), stem, occlux_image, cycles, report, extra
         )
         image = bpy.data.images.load(str(png), check_existing=True)

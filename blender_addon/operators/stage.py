@@ -17,7 +17,7 @@ from pathlib import Path
 import bpy
 from bpy.props import StringProperty
 from bpy_extras.io_utils import ImportHelper
-from occlux.cycles.material import box_mask
+from occlux.blender.material import box_mask
 
 from ..material import Rgb
 

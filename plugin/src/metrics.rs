@@ -1,11 +1,11 @@
 //! A method's image against a reference image of the same scene (`occlux.image_error`,
 //! `occlux.write_error_map`): DESIGN.md's error figures and the map of where they differ, as
-//! the core computes them (src/eval/error_map.rs), for the add-on's Check Against Cycles.
+//! the core computes them (src/metric/), for the add-on's Check Against Cycles.
 
 use crate::writers::as_array;
 use crate::{py_err, OccluxError};
 use numpy::{PyReadonlyArrayDyn, PyUntypedArrayMethods};
-use occlux::eval::error_map;
+use occlux::metric::{self, error_map};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use std::path::PathBuf;
@@ -88,8 +88,8 @@ fn image_error<'py>(
         }
         None => None,
     };
-    let e = error_map::image_error(&image, &reference, stderr.as_deref(), background)
-        .map_err(py_err)?;
+    let e =
+        metric::image_error(&image, &reference, stderr.as_deref(), background).map_err(py_err)?;
     let figures = PyDict::new(py);
     figures.set_item("pixels", e.pixels)?;
     figures.set_item("rel_rmse", e.rel_rmse)?;

@@ -43,7 +43,15 @@ pub fn series_plan(
     };
     py.detach(|| {
         let frames = spec.map(|s| s.resolve(Path::new(""))).transpose()?;
-        let (manifest, resume) = series::plan(tree, &base, frames, name, &out, &options, true)?;
+        let (manifest, resume) = series::plan(
+            tree,
+            &base,
+            frames,
+            name,
+            &out,
+            &options,
+            &occlux::progress::Silent,
+        )?;
         Ok((
             Manifest::path(&out, &manifest.name),
             resume == Resume::Resumed,

@@ -10,7 +10,6 @@
 //! and the air beside matter less. VAO's own openness (the paper's, 1/2 in empty space and on a
 //! flat interface) stays available as `raw`; AO-shaded DVR shades with it.
 
-pub mod commands;
 pub mod reference;
 pub mod surface_reference;
 pub mod sweep;

@@ -29,7 +29,7 @@ use rayon::prelude::*;
 use std::sync::atomic::{AtomicU64, Ordering};
 
 /// Which openness to estimate (see the module docs).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum AoVariant {
     Sphere,
     Hemisphere,
@@ -37,13 +37,27 @@ pub enum AoVariant {
 }
 
 impl AoVariant {
+    /// Every variant by its name on the command line and in file names.
+    const NAMES: [(&'static str, AoVariant); 3] = [
+        ("sphere", AoVariant::Sphere),
+        ("hemisphere", AoVariant::Hemisphere),
+        ("tangent-sphere", AoVariant::TangentSphere),
+    ];
+
     /// The name on the command line and in file names.
     pub fn name(self) -> &'static str {
-        match self {
-            AoVariant::Sphere => "sphere",
-            AoVariant::Hemisphere => "hemisphere",
-            AoVariant::TangentSphere => "tangent-sphere",
-        }
+        Self::NAMES
+            .iter()
+            .find(|(_, variant)| *variant == self)
+            .map_or("", |(name, _)| name)
+    }
+}
+
+impl std::str::FromStr for AoVariant {
+    type Err = crate::error::Error;
+
+    fn from_str(name: &str) -> crate::error::Result<Self> {
+        crate::names::parse_name("variant", name, &Self::NAMES)
     }
 }
 

@@ -36,14 +36,25 @@ pub fn write_png_preview(path: &Path, img: &RenderImage, exposure: f32) -> Resul
         .iter()
         .flat_map(|p| [p[0], p[1], p[2]].map(|c| tone_map(c, exposure)))
         .collect();
+    write_rgb_png(path, &data, (img.width, img.height))
+}
+
+/// Encodes 8-bit sRGB pixels (RGB, row 0 at the top) as a PNG at `path`, atomically.
+pub fn write_rgb_png(path: &Path, rgb: &[u8], (width, height): (u32, u32)) -> Result<()> {
+    if rgb.len() != width as usize * height as usize * 3 {
+        return Err(Error::param(
+            "rgb",
+            format!("{} bytes for {width} x {height} RGB pixels", rgb.len()),
+        ));
+    }
     write_atomic(path, |w| {
-        let mut encoder = png::Encoder::new(w, img.width, img.height);
+        let mut encoder = png::Encoder::new(w, width, height);
         encoder.set_color(png::ColorType::Rgb);
         encoder.set_depth(png::BitDepth::Eight);
         encoder.set_source_srgb(png::SrgbRenderingIntent::Perceptual);
         let fail = |e: png::EncodingError| Error::format(path, format!("writing PNG: {e}"));
         let mut writer = encoder.write_header().map_err(fail)?;
-        writer.write_image_data(&data).map_err(fail)?;
+        writer.write_image_data(rgb).map_err(fail)?;
         writer.finish().map_err(fail)
     })
 }

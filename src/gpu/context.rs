@@ -152,7 +152,7 @@ fn gpu_message(e: Error) -> String {
 }
 
 /// What the user asked for with `--device` (or `device =` in a scene file).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum, serde::Deserialize)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum DeviceChoice {
     /// A hardware GPU adapter if one opens, else the CPU (with a notice).
@@ -162,6 +162,20 @@ pub enum DeviceChoice {
     Gpu,
     /// The CPU path; wgpu is never touched.
     Cpu,
+}
+
+impl std::str::FromStr for DeviceChoice {
+    type Err = Error;
+
+    /// `auto`, `gpu` or `cpu`, as `--device` and a scene's `device =` take them.
+    fn from_str(name: &str) -> Result<Self> {
+        let choices = [
+            ("auto", DeviceChoice::Auto),
+            ("gpu", DeviceChoice::Gpu),
+            ("cpu", DeviceChoice::Cpu),
+        ];
+        crate::names::parse_name("device", name, &choices)
+    }
 }
 
 /// Where kernels run: handed to every method, which dispatches to its GPU or CPU twin.
@@ -193,7 +207,6 @@ impl Compute {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use clap::ValueEnum;
 
     #[test]
     fn auto_falls_back_to_the_cpu_with_a_notice() {
@@ -233,7 +246,8 @@ mod tests {
 
     #[test]
     fn device_choice_parses_lowercase_from_cli_and_toml() {
-        assert_eq!(DeviceChoice::from_str("gpu", false), Ok(DeviceChoice::Gpu));
+        assert_eq!("gpu".parse::<DeviceChoice>().unwrap(), DeviceChoice::Gpu);
+        assert!("GPU".parse::<DeviceChoice>().is_err());
         #[derive(serde::Deserialize)]
         struct Scene {
             device: DeviceChoice,

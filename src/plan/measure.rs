@@ -5,8 +5,8 @@
 use crate::camera::Camera;
 use crate::classify::Lut;
 use crate::error::{Error, Result};
-use crate::eval::sweep_accuracy::design_error;
 use crate::gpu::Compute;
+use crate::metric::design_error;
 use crate::progress::{NoProgress, Progress};
 use crate::registry::Method;
 use crate::render::reference::{self, Estimator, ReferenceImage, ReferenceInput, ReferenceParams};

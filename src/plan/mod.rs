@@ -22,7 +22,6 @@
 //! it was fitted on; the pilot measures the scene at hand, for about the cost of a few
 //! renders (printed).
 
-pub mod command;
 pub mod measure;
 pub mod stats;
 
@@ -33,11 +32,13 @@ use crate::progress::Progress;
 use crate::registry::{Method, METHODS};
 use crate::render::reference::{Estimator, MAX_SPP};
 use crate::render::Rendered;
+use crate::scene::Scene;
 use measure::{
     monte_carlo, pixels, render_method, render_through, resized, CostLaw, Subject, Truth,
 };
 use serde::Serialize;
 use stats::SceneStats;
+use std::path::Path;
 use std::time::Instant;
 
 /// Default pilot image size (longer side, pixels).
@@ -59,7 +60,7 @@ const FIRST_PILOT_SPP: u32 = 64;
 const MOST_PILOT_SPP: u32 = 8192;
 
 /// The light transport the truth models.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, clap::ValueEnum)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Scattering {
     /// Light scattered once (Cycles' default: no volume bounces).
@@ -82,6 +83,19 @@ impl Scattering {
             "multiple" => Some(Scattering::Multiple),
             _ => None,
         }
+    }
+}
+
+impl std::str::FromStr for Scattering {
+    type Err = Error;
+
+    fn from_str(name: &str) -> Result<Self> {
+        Scattering::from_name(name).ok_or_else(|| {
+            Error::param(
+                "scattering",
+                format!("unknown '{name}': one of single, multiple"),
+            )
+        })
     }
 }
 
@@ -581,6 +595,19 @@ fn method_estimate(
         pilot_seconds
     };
     Ok(estimate)
+}
+
+/// A scene file without its `[render]`: the method is what the planner replaces, so whether
+/// it suits the scene's lights does not matter.
+pub fn scene_to_plan(path: &Path) -> Result<Scene> {
+    let (mut tree, base) = Scene::file_tree(path)?;
+    if let Some(table) = tree.as_object_mut() {
+        table.remove("render");
+    }
+    Scene::from_value(tree, &base).map_err(|e| match e {
+        Error::Param { .. } => Error::format(path, e.to_string()),
+        other => other,
+    })
 }
 
 #[cfg(test)]

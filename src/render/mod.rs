@@ -93,6 +93,19 @@ impl Factor {
         }
     }
 
+    /// The factor's mean over what the image shows: the sum of P over the sum of coverage A
+    /// (NaN if nothing covers any pixel).
+    pub fn mean(&self) -> f64 {
+        let (p, a) = self.values.iter().fold((0.0f64, 0.0f64), |(p, a), v| {
+            (p + v[0] as f64, a + v[1] as f64)
+        });
+        if a > 0.0 {
+            p / a
+        } else {
+            f64::NAN
+        }
+    }
+
     /// P per pixel.
     pub fn premultiplied(&self) -> Vec<f32> {
         self.values.iter().map(|v| v[0]).collect()

@@ -28,7 +28,7 @@ use crate::export::vdb::{write_vdb, Compression, VdbOptions};
 use crate::framing::{self, Content};
 use crate::gpu::Compute;
 use crate::pipeline::{self, header_metadata, OutputOptions, EXPORT_GRIDS};
-use crate::progress::{say, Bar, NoProgress, Progress};
+use crate::progress::{NoProgress, Progress, Report};
 use crate::render::ao_shaded::AO_GRID;
 use crate::scene::{Centre, Scene, SourceKind};
 use crate::volume::{self, LoadOptions, Volume};
@@ -142,7 +142,7 @@ pub fn frame_file(name: &str, number: u32, ext: &str) -> String {
 /// Reads every frame once and writes the manifest into `out_dir` (or resumes the one there):
 /// `tree` is the scene file's tree and `base` its folder; `frames` overrides the scene's
 /// `volume.frames`. Frames of other dims or spacing than the first are refused here, naming
-/// them. Says what it fixed across the frames unless `quiet`.
+/// them. Says what it fixed across the frames to `report`.
 pub fn plan(
     tree: Value,
     base: &Path,
@@ -150,7 +150,7 @@ pub fn plan(
     name: &str,
     out_dir: &Path,
     options: &SeriesOptions,
-    quiet: bool,
+    report: &dyn Report,
 ) -> Result<(Manifest, Resume)> {
     options.validate()?;
     crate::export::usd::check_prim_name(name).map_err(|_| {
@@ -190,7 +190,7 @@ pub fn plan(
         }
     };
     let sources = time_steps(&files, &scene)?;
-    let fixed = fix_across(&tree, &base, &scene, &sources, quiet)?;
+    let fixed = fix_across(&tree, &base, &scene, &sources, report)?;
     let grids = if options.export {
         grid_names(&scene, options)?
     } else {
@@ -290,12 +290,12 @@ fn fix_across(
     base: &Path,
     scene: &Scene,
     sources: &[Source],
-    quiet: bool,
+    report: &dyn Report,
 ) -> Result<Fixed> {
     let needs_window = scene.classification.units == ValueUnits::Normalized
         && !matches!(scene.classification.range, ValueRange::Window(_));
     let needs_content = scene.framing.is_some() || scene.volume.centre == Some(Centre::Content);
-    let bar = Bar::new(quiet, sources.len() as u64, "reading frames");
+    let bar = report.stage("reading frames", sources.len() as u64);
     let mut grid: Option<(PathBuf, Volume)> = None;
     let mut window: Option<Window> = None;
     let mut template: Option<Scene> = None;
@@ -312,7 +312,7 @@ fn fix_across(
         }
         bar.update(n as u64 + 1, sources.len() as u64);
     }
-    bar.finish();
+    drop(bar);
     let (_, first) = grid.ok_or_else(|| Error::param("frames", "the series has no frames"))?;
     let mut fixed_scene = template.expect("set with the first frame");
     // Units as settled on the data (a preset read in HU stays HU), framing and centre as asked.
@@ -324,16 +324,13 @@ fn fix_across(
     if let Some(w) = window {
         fixed_scene.classification.range = ValueRange::Window(w);
         if needs_window {
-            say(
-                quiet,
-                format_args!(
-                    "classification: normalised 0..1 on values {} .. {}, fixed across {} frames \
+            report.say(&format!(
+                "classification: normalised 0..1 on values {} .. {}, fixed across {} frames \
                      (the union of each frame's window)",
-                    w.lo,
-                    w.hi,
-                    sources.len()
-                ),
-            );
+                w.lo,
+                w.hi,
+                sources.len()
+            ));
         }
     }
     let (box_lo, box_hi) = first.bounds();
@@ -342,7 +339,7 @@ fn fix_across(
         _ => None,
     };
     if needs_content {
-        let content = content_across(tree, base, &fixed_scene, sources, quiet)?;
+        let content = content_across(tree, base, &fixed_scene, sources, report)?;
         let (mut lo, mut hi) = content.map_or((box_lo, box_hi), |c| (c.lo, c.hi));
         if scene.volume.centre == Some(Centre::Content) {
             let shift = -0.5 * (lo + hi);
@@ -351,14 +348,11 @@ fn fix_across(
         }
         if let Some(framing) = scene.framing {
             fixed_scene.camera = fixed_scene.camera.framing(lo, hi, framing.margin)?;
-            say(
-                quiet,
-                format_args!(
-                    "camera: frames the visible content of every frame, [{:.3}, {:.3}, {:.3}] .. \
+            report.say(&format!(
+                "camera: frames the visible content of every frame, [{:.3}, {:.3}, {:.3}] .. \
                      [{:.3}, {:.3}, {:.3}]",
-                    lo.x, lo.y, lo.z, hi.x, hi.y, hi.z
-                ),
-            );
+                lo.x, lo.y, lo.z, hi.x, hi.y, hi.z
+            ));
         }
     }
     let shift = centre.map_or(Vec3::ZERO, |c| Vec3::from(c) - 0.5 * (box_lo + box_hi));
@@ -386,9 +380,9 @@ fn content_across(
     base: &Path,
     fixed: &Scene,
     sources: &[Source],
-    quiet: bool,
+    report: &dyn Report,
 ) -> Result<Option<Content>> {
-    let bar = Bar::new(quiet, sources.len() as u64, "framing frames");
+    let bar = report.stage("framing frames", sources.len() as u64);
     let mut union: Option<Content> = None;
     for (n, (source, time)) in sources.iter().enumerate() {
         let mut frame = without_data_choices(&frame_scene_from(tree, base, source, *time)?);
@@ -403,7 +397,7 @@ fn content_across(
         }
         bar.update(n as u64 + 1, sources.len() as u64);
     }
-    bar.finish();
+    drop(bar);
     Ok(union)
 }
 
@@ -682,8 +676,13 @@ pub fn finish(manifest: &Manifest, out_dir: &Path) -> Result<Option<PathBuf>> {
 /// Runs every frame of a planned series in order on `compute`, with a bar over the frames,
 /// then writes the stage. A failed frame does not stop the others: every failure is named at
 /// the end, and a rerun redoes only what is missing.
-pub fn run(manifest: &Manifest, out_dir: &Path, compute: &Compute, quiet: bool) -> Result<Summary> {
-    let bar = Bar::new(quiet, manifest.count as u64, "frames");
+pub fn run(
+    manifest: &Manifest,
+    out_dir: &Path,
+    compute: &Compute,
+    report: &dyn Report,
+) -> Result<Summary> {
+    let bar = report.stage("frames", manifest.count as u64);
     let mut summary = Summary::default();
     for (n, entry) in manifest.frames.iter().enumerate() {
         bar.message(&format!("frame {}", entry.frame));
@@ -694,7 +693,7 @@ pub fn run(manifest: &Manifest, out_dir: &Path, compute: &Compute, quiet: bool) 
         }
         bar.update(n as u64 + 1, manifest.count as u64);
     }
-    bar.finish();
+    drop(bar);
     if summary.failed.is_empty() {
         summary.stage = finish(manifest, out_dir)?;
     }

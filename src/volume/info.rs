@@ -1,4 +1,4 @@
-//! `occlux info`: what a volume file holds, as a user reads it: format, dims, spacing, bounds,
+//! What a volume file holds (`occlux info` prints it), as a user reads it: format, dims, spacing, bounds,
 //! the NaN and infinite values it holds and where, percentiles of its finite values and a
 //! histogram whose bars are logarithmic in the count, so that a lone outlier voxel shows.
 //!
@@ -10,6 +10,7 @@ use super::loaders::NonFiniteVoxels;
 use super::{frame_count, load_with_info, LoadOptions, NonFinite, Volume};
 use crate::classify::{Window, WindowReport};
 use crate::error::Result;
+use std::fmt::Write;
 use std::path::Path;
 
 /// Percentiles `occlux info` prints.
@@ -129,9 +130,16 @@ fn to_bin(v: f32, width: f32) -> String {
     format!("{v:.decimals$}")
 }
 
-/// Loads `file` (the first frame of a time series) and prints its description on standard
-/// output.
-pub fn print(file: &Path, options: &LoadOptions, suggest: bool) -> Result<()> {
+/// Loads `file` (the first frame of a time series) and describes it, line by line, as `occlux
+/// info` prints it; with `suggest`, a `[classification]` to paste into a scene follows.
+pub fn describe(file: &Path, options: &LoadOptions, suggest: bool) -> Result<String> {
+    let mut out = String::new();
+    // Writing into a String cannot fail.
+    macro_rules! emit {
+        ($($line:tt)*) => {{
+            let _ = writeln!(out, $($line)*);
+        }};
+    }
     let frames = frame_count(file, options)?;
     let options = LoadOptions {
         non_finite: NonFinite::Census,
@@ -142,8 +150,8 @@ pub fn print(file: &Path, options: &LoadOptions, suggest: bool) -> Result<()> {
     let [nx, ny, nz] = vol.dims();
     let (blo, bhi) = vol.bounds();
     let voxels = vol.values().len();
-    println!("file      {}", file.display());
-    println!(
+    emit!("file      {}", file.display());
+    emit!(
         "format    {} ({}{})",
         source.format,
         source.scalar,
@@ -152,21 +160,21 @@ pub fn print(file: &Path, options: &LoadOptions, suggest: bool) -> Result<()> {
             .as_ref()
             .map_or(String::new(), |g| format!(", grid '{g}'"))
     );
-    println!(
+    emit!(
         "dims      {nx} x {ny} x {nz} ({voxels} voxels, {:.1} MiB as f32)",
         voxels as f64 * 4.0 / (1 << 20) as f64
     );
     if frames > 1 {
-        println!("time steps {frames} (occlux series reads each; info describes the first)");
+        emit!("time steps {frames} (occlux series reads each; info describes the first)");
     }
-    println!("spacing   {}", vol.spacing());
-    println!("origin    {}", vol.origin());
-    println!("bounds    {blo} .. {bhi}");
-    println!("frame     {}", source.frame);
+    emit!("spacing   {}", vol.spacing());
+    emit!("origin    {}", vol.origin());
+    emit!("bounds    {blo} .. {bhi}");
+    emit!("frame     {}", source.frame);
     let census = &source.non_finite;
     let bad = census.indices.len();
     if bad > 0 {
-        println!(
+        emit!(
             "NOT FINITE {bad} of {voxels} voxels ({} NaN, {} +inf, {} -inf), {}; Occlux refuses \
              the file unless the scene sets volume.replace_non_finite; the statistics below are \
              of the finite voxels",
@@ -177,18 +185,18 @@ pub fn print(file: &Path, options: &LoadOptions, suggest: bool) -> Result<()> {
         );
     }
     let Some(stats) = Statistics::of(&vol, bad) else {
-        println!("values    none finite");
-        return Ok(());
+        emit!("values    none finite");
+        return Ok(out);
     };
-    println!("values    {} .. {}", stats.min, stats.max);
+    emit!("values    {} .. {}", stats.min, stats.max);
     match &source.hounsfield {
-        Some(why) => println!("units     Hounsfield ({why}): CT presets read them in HU"),
-        None => println!("units     not stated by the file"),
+        Some(why) => emit!("units     Hounsfield ({why}): CT presets read them in HU"),
+        None => emit!("units     not stated by the file"),
     }
     // The window is read from finite values only; a census left zeros where others were.
     let report = (bad == 0).then(|| Window::robust(&vol));
     if let Some(report) = &report {
-        println!("window    {report}: presets' normalised 0..1");
+        emit!("window    {report}: presets' normalised 0..1");
     }
     let fine_width = (stats.max - stats.min) / FINE_BINS as f32;
     let percentiles: Vec<String> = PERCENTILES
@@ -196,8 +204,8 @@ pub fn print(file: &Path, options: &LoadOptions, suggest: bool) -> Result<()> {
         .zip(&stats.percentiles)
         .map(|(p, v)| format!("p{p} {}", to_bin(*v, fine_width)))
         .collect();
-    println!("quantiles {}", percentiles.join(", "));
-    println!(
+    emit!("quantiles {}", percentiles.join(", "));
+    emit!(
         "histogram ({BINS} bins over the value range; bars grow with log10 of the count, so one \
          voxel shows)"
     );
@@ -205,7 +213,7 @@ pub fn print(file: &Path, options: &LoadOptions, suggest: bool) -> Result<()> {
     let scale = 40.0 / (stats.count as f64 + 1.0).log10();
     for (b, &count) in stats.histogram.iter().enumerate() {
         let bar = ((count as f64 + 1.0).log10() * scale).ceil() as usize;
-        println!(
+        emit!(
             "  {:>12.4} .. {:<12.4} {count:>11} {:7.3}% {}",
             stats.min + b as f32 * width,
             stats.min + (b + 1) as f32 * width,
@@ -215,17 +223,17 @@ pub fn print(file: &Path, options: &LoadOptions, suggest: bool) -> Result<()> {
     }
     if suggest {
         match (&source.hounsfield, &report) {
-            (Some(_), _) => println!(
+            (Some(_), _) => emit!(
                 "\n# paste into a scene: the file's values are Hounsfield units\n\
                  [classification]\npreset = \"ct-soft-tissue\"   # or \"ct-bone\"\nunits = \"hu\""
             ),
-            (None, Some(report)) => println!("\n{}", suggestion(report)),
-            (None, None) => println!(
+            (None, Some(report)) => emit!("\n{}", suggestion(report)),
+            (None, None) => emit!(
                 "\n# no suggestion: set volume.replace_non_finite first, the window needs finite values"
             ),
         }
     }
-    Ok(())
+    Ok(out)
 }
 
 /// A `[classification]` a user can paste: clear up to the background band's top, a

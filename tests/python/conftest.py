@@ -2,7 +2,9 @@
 
 The readers that check Occlux's files (OpenVDB 12, OpenImageIO) come with the bpy wheel, in a
 site-packages folder that is not on sys.path: the ``bpy_site_packages`` fixture puts it there
-(the plain function is ``occlux_testing.bpy_site_packages``). GPU tests run on whatever adapter
+(the plain function is ``occlux_testing.bpy_site_packages``). The measurement harness
+``occlux_lab`` is not installed: its folder, lab/python, goes on sys.path here (subprocesses get
+it on PYTHONPATH from ``occlux_testing.lab_env``). GPU tests run on whatever adapter
 wgpu opens (lavapipe in CI); with ``OCCLUX_REQUIRE_GPU=1`` (CI) a missing GPU fails them instead
 of skipping them.
 """
@@ -15,8 +17,11 @@ import sys
 from pathlib import Path
 
 import pytest
-from occlux_testing import REPO
+from occlux_testing import LAB, REPO
 from occlux_testing import bpy_site_packages as find_bpy_site_packages
+
+if str(LAB) not in sys.path:
+    sys.path.insert(0, str(LAB))
 
 
 def gpu_required() -> bool:

@@ -1,5 +1,6 @@
-"""Shared helpers for the Python tests: the CLI binary, an image reader, and (re-exported from
-`occlux.cycles`) the way to the modules bundled in the bpy wheel (OpenVDB 12, OpenImageIO)."""
+"""Shared helpers for the Python tests: the CLI binary, an image reader, the measurement harness's
+folder (`occlux_lab`, in lab/python, which is not installed) and (re-exported from
+`occlux.blender`) the way to the modules bundled in the bpy wheel (OpenVDB 12, OpenImageIO)."""
 
 from __future__ import annotations
 
@@ -8,9 +9,18 @@ import subprocess
 from pathlib import Path
 
 import numpy as np
-from occlux.cycles import bpy_site_packages, bundled_module
+from occlux.blender import bpy_site_packages, bundled_module
 
 REPO = Path(__file__).resolve().parents[2]
+LAB = REPO / "lab" / "python"
+"""The folder of the measurement harness ``occlux_lab``: conftest.py puts it on sys.path, and
+:func:`lab_env` on the PYTHONPATH of a subprocess (as the ``occlux`` launchers do)."""
+
+
+def lab_env() -> dict[str, str]:
+    """This process's environment with LAB first on PYTHONPATH, for ``python -m occlux_lab...``."""
+    paths = [str(LAB), *filter(None, os.environ.get("PYTHONPATH", "").split(os.pathsep))]
+    return {**os.environ, "PYTHONPATH": os.pathsep.join(paths)}
 
 
 def oiio_read(path: Path) -> dict[str, np.ndarray]:
@@ -50,9 +60,11 @@ def usd_validation_errors(stage) -> list[str]:
 
 
 __all__ = [
+    "LAB",
     "REPO",
     "bpy_site_packages",
     "bundled_module",
+    "lab_env",
     "occlux_binary",
     "oiio_read",
     "run_occlux",

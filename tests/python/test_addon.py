@@ -8,16 +8,19 @@ of the `occlux` wheel are used rather than this test process's."""
 
 from __future__ import annotations
 
+import ast
+import io
 import json
 import os
 import subprocess
 import sys
 import textwrap
+import zipfile
 from pathlib import Path
 
 import numpy as np
 import occlux
-import occlux.cycles as oc
+import occlux.blender as ob
 import pytest
 from occlux_testing import REPO, oiio_read
 
@@ -154,6 +157,52 @@ def test_the_extension_installs_registers_and_reloads(extension: Path, tmp_path:
     assert str(tmp_path) in result["occlux_from"], result["occlux_from"]
 
 
+def imported_modules(path: Path) -> set[str]:
+    """The absolute modules a Python file imports (relative imports left out)."""
+    names = set()
+    for node in ast.walk(ast.parse(path.read_text(), str(path))):
+        if isinstance(node, ast.Import):
+            names.update(alias.name for alias in node.names)
+        elif isinstance(node, ast.ImportFrom) and node.level == 0 and node.module:
+            names.add(node.module)
+    return names
+
+
+def test_user_code_imports_nothing_of_the_harness() -> None:
+    """The add-on and the package users install import nothing of the measurement harness
+    (`occlux_lab`, in lab/python, which neither ships), and every `occlux` module the add-on
+    imports is in the package (plugin/python) or is its native module."""
+    package = REPO / "plugin" / "python"
+    addon = sorted((REPO / "blender_addon").rglob("*.py"))
+    for path in [*addon, *sorted(package.rglob("*.py"))]:
+        harness = [m for m in imported_modules(path) if m.split(".")[0] == "occlux_lab"]
+        assert harness == [], f"{path} imports {harness}"
+    for path in addon:
+        for name in imported_modules(path):
+            if name.split(".")[0] != "occlux" or name == "occlux._occlux":
+                continue
+            module = package.joinpath(*name.split("."))
+            found = module.with_suffix(".py").is_file() or (module / "__init__.py").is_file()
+            assert found, f"{path} imports {name}, which is not in {package}"
+
+
+def test_the_bundled_wheel_holds_user_code_and_not_the_harness(extension: Path) -> None:
+    """The `occlux` wheel inside the extension holds what users call (the native module, the
+    Cycles mapping `occlux.blender` that the add-on's check and materials use, `occlux.usd`,
+    `occlux.batch`) and none of the measurement harness (`occlux_lab`: the Cycles check's
+    command line, the chart's curves and peers)."""
+    with zipfile.ZipFile(extension) as z:
+        (wheel,) = [n for n in z.namelist() if n.endswith(".whl")]
+        names = zipfile.ZipFile(io.BytesIO(z.read(wheel))).namelist()
+    for shipped in ("occlux/__init__.py", "occlux/batch.py", "occlux/usd.py"):
+        assert shipped in names, names
+    assert any(n.startswith("occlux/_occlux") for n in names), names
+    blender = {n for n in names if n.startswith("occlux/blender/") and n.endswith(".py")}
+    assert {"occlux/blender/__init__.py", "occlux/blender/material.py"} <= blender, names
+    harness = [n for n in names if n.startswith(("occlux_lab/", "occlux/cycles/", "occlux/peers/"))]
+    assert harness == [], harness
+
+
 @pytest.mark.parametrize("source", ["phantom", "tooth"])
 def test_load_volume_adds_a_classified_volume_object(
     extension: Path, tmp_path: Path, source: str
@@ -191,7 +240,7 @@ def test_load_volume_adds_a_classified_volume_object(
     assert result["type"] == "VOLUME" and result["grids"] == ["density", "value"]
     assert Path(result["filepath"]).is_file()
     assert result["size"] == pytest.approx(2.0, abs=0.1), "fitted to 2 scene units"
-    # sigma_t from the `value` grid through the points (the mapping occlux.cycles verifies),
+    # sigma_t from the `value` grid through the points (the mapping occlux.blender renders),
     # so no grid multiplies it
     assert result["density_attribute"] == "" and result["density_from"] == "ShaderNodeMath"
     assert result["color_from"] == "ShaderNodeValToRGB" and result["attributes"] == ["value"]
@@ -519,9 +568,9 @@ result["scenes"] = [x.name for x in bpy.data.scenes]
     figures = [report[k] for k in ("rmse", "rmse_over_noise", "z_scale", "mean_z")]
     assert all(np.isfinite(figures)) and report["pixels"] > 500, report
     # The agreement criteria of tests/python/test_cycles.py.
-    assert oc.Z_SCALE_RANGE[0] <= report["z_scale"] <= oc.Z_SCALE_RANGE[1], report
-    assert abs(report["mean_z"]) <= oc.MAX_ABS_MEAN_Z, report
-    assert report["fraction_over_3"] <= oc.MAX_FRACTION_OVER_3, report
+    assert ob.Z_SCALE_RANGE[0] <= report["z_scale"] <= ob.Z_SCALE_RANGE[1], report
+    assert abs(report["mean_z"]) <= ob.MAX_ABS_MEAN_Z, report
+    assert report["fraction_over_3"] <= ob.MAX_FRACTION_OVER_3, report
     assert 0.0 < report["rmse"] and report["rmse_over_noise"] < 1.5, report
     rmse, over_noise, z_scale, agrees = result["panel"]
     assert rmse == pytest.approx(report["rmse"], rel=1e-5) and agrees is True
@@ -547,7 +596,7 @@ def test_the_ambient_ao_material_renders_in_cycles_what_occlux_renders(
         + f"""
 import numpy as np
 import occlux
-import occlux.cycles as oc
+import occlux.blender as ob
 scenes = sys.modules["bl_ext.user_default.occlux.scenes"]
 scene.render.resolution_x, scene.render.resolution_y = 64, 48
 s = scene.occlux
@@ -559,8 +608,8 @@ render = {{"method": "ao", "ao_method": "sweep-physical", "direct": False}}
 described = scenes.scene_tree(bpy.context, scenes.selected_source(bpy.context), 64, 48,
                               ("ambient",), render=render)
 beauty = np.asarray(occlux.render(scenes.build(described.tree), device="cpu").beauty)
-oc.cycles_settings(scene, 0)  # unbiased, unfiltered, linear EXR
-cycles = oc.render_scene(scene, 64, 8)
+ob.cycles_settings(scene, 0)  # unbiased, unfiltered, linear EXR
+cycles = ob.render_scene(scene, 64, 8)
 inside = beauty[..., 3] > 0.05
 ours, theirs = beauty[..., :3][inside], cycles.mean[inside]
 result["pixels"] = int(inside.sum())
@@ -772,7 +821,7 @@ def method_render(tmp_path: Path, out: Path, preset: str) -> str:
     return (
         CAMERA_AND_WORLD
         + f"""
-import occlux.cycles as oc
+import occlux.blender as ob
 s = scene.occlux
 s.volume_path = {str(phantom_npy(tmp_path))!r}
 s.preset = {preset!r}
@@ -809,8 +858,8 @@ s.dos_sampling = "area"
 s.dos_slice_distance = 0.05
 result["op"] = list(bpy.ops.occlux.render_dos())
 result["exr"] = s.last_exr
-_, header = oc.read_channels(s.last_exr)
-oc.check_camera(scene, json.loads(header["occlux/camera"]))  # Blender's camera, as rendered
+_, header = ob.read_channels(s.last_exr)
+ob.check_camera(scene, json.loads(header["occlux/camera"]))  # Blender's camera, as rendered
 result["method"] = json.loads(header["occlux/method"])
 result["lighting"] = json.loads(header["occlux/lighting"])
 result["composite"] = list(bpy.ops.occlux.composite(filepath=s.last_exr, layer="occlusion"))
@@ -887,7 +936,7 @@ bpy.context.view_layer.update()
 result["sun_z"] = list(sun.matrix_world.col[2].xyz.normalized())
 result["op"] = list(bpy.ops.occlux.render_ipsvi())
 result["exr"] = s.last_exr
-_, header = oc.read_channels(s.last_exr)
+_, header = ob.read_channels(s.last_exr)
 result["method"] = json.loads(header["occlux/method"])
 result["lighting"] = json.loads(header["occlux/lighting"])
 result["composite"] = list(bpy.ops.occlux.composite(filepath=s.last_exr, layer="shadow"))
@@ -1260,7 +1309,7 @@ def test_the_scene_built_from_blender_describes_blenders_camera(
         tmp_path / "user",
         CAMERA_AND_WORLD
         + f"""
-import occlux.cycles as oc
+import occlux.blender as ob
 scenes = sys.modules["bl_ext.user_default.occlux.scenes"]
 s = scene.occlux
 s.volume_path = {str(phantom_npy(tmp_path))!r}
@@ -1273,7 +1322,7 @@ for name, kind, fit, size in (("auto", "PERSP", "AUTO", (400, 300)),
     scene.render.resolution_x, scene.render.resolution_y = size
     tree = scenes.scene_tree(bpy.context, scenes.VolumeInput.from_settings(s), *size).tree
     described = scenes.build(tree).describe()
-    cases[name] = {{"occlux": described["camera"], "blender": oc.camera_frustum(scene),
+    cases[name] = {{"occlux": described["camera"], "blender": ob.camera_frustum(scene),
                     "lights": described["lighting"]["lights"]}}
 result["cases"] = cases
 """,

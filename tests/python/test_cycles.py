@@ -1,4 +1,4 @@
-"""The Cycles cross-check (``occlux.cycles``).
+"""The Cycles cross-check (the mapping ``occlux.blender`` and the harness ``occlux_lab.cycles``).
 
 First what the harness takes from the core: the scene as the core resolved it must be what the
 scene file says (camera, lights, transfer function in raw units), from a file or from a Scene
@@ -23,11 +23,12 @@ from pathlib import Path
 import numpy as np
 import numpy.testing  # imported here: on first import it runs lscpu, which no_subprocess refuses
 import occlux
-import occlux.cycles as oc
+import occlux.blender as ob
 import pytest
-from occlux.cycles.cli import parser as harness_parser
-from occlux.cycles.curve import render_curve
-from occlux_testing import oiio_read, run_occlux
+from occlux_lab.cycles import main as harness_main
+from occlux_lab.cycles.cli import parser as harness_parser
+from occlux_lab.cycles.curve import render_curve
+from occlux_testing import LAB, oiio_read, run_occlux
 
 SPP = 128  # per pixel, for Occlux and for Cycles (32 renders of 4 samples)
 SEEDS = 32
@@ -146,10 +147,10 @@ def test_cycles_transmittance_matches_the_closed_form(ramp):
     """Camera (orthographic, pixel centres), voxel centres, the box's faces, trilinear values,
     normalized units and the density scale, through Blender alone."""
     folder = ramp.parent
-    scene = oc.build_scene(ramp, folder / "ramp.vdb", "ambient")
-    _, header = oc.read_channels(folder / "ramp.exr")
-    oc.check_camera(scene, json.loads(header["occlux/camera"]))
-    cycles = oc.render_scene(scene, 512, SEEDS)
+    scene = ob.build_scene(ramp, folder / "ramp.vdb", "ambient")
+    _, header = ob.read_channels(folder / "ramp.exr")
+    ob.check_camera(scene, json.loads(header["occlux/camera"]))
+    cycles = ob.render_scene(scene, 512, SEEDS)
     got, se = cycles.mean[..., 0], cycles.stderr[..., 0]
     # Rays that miss the medium are exact (1 +- 0); the rest carry Cycles' noise.
     noisy = se > 0
@@ -261,27 +262,27 @@ def test_occlux_agrees_with_cycles(
     scene = request.getfixturevalue(volume)
     argv = [str(scene), "--estimator", estimator, "--spp", str(SPP), "--seeds", str(SEEDS)]
     argv += ["--bounces", str(bounces), "--g", str(g), "--out", str(tmp_path)]
-    status = oc.main(argv)
+    status = harness_main(argv)
     printed = capsys.readouterr().out
     stem = f"{scene.stem}-{estimator}"
     report = json.loads((tmp_path / f"{stem}-report.json").read_text())
     assert status == 0, printed
-    assert oc.Z_SCALE_RANGE[0] <= report["z_scale"] <= oc.Z_SCALE_RANGE[1], printed
-    assert abs(report["mean_z"]) <= oc.MAX_ABS_MEAN_Z, printed
-    assert report["fraction_over_3"] <= oc.MAX_FRACTION_OVER_3, printed
+    assert ob.Z_SCALE_RANGE[0] <= report["z_scale"] <= ob.Z_SCALE_RANGE[1], printed
+    assert abs(report["mean_z"]) <= ob.MAX_ABS_MEAN_Z, printed
+    assert report["fraction_over_3"] <= ob.MAX_FRACTION_OVER_3, printed
     assert report["pixels"] > 500 and report["agrees"]
     # What was written, read back: Cycles' mean and standard error, and the error map of z.
-    occlux = oc.read_reference(tmp_path / f"{stem}.exr")
+    occlux = ob.read_reference(tmp_path / f"{stem}.exr")
     cycles = oiio_read(tmp_path / f"{stem}-cycles.exr")
     mean = np.stack([cycles[f"beauty.{c}"] for c in "RGB"], axis=-1)
     stderr = np.stack([cycles[f"stderr.{c}"] for c in "RGB"], axis=-1)
-    again = oc.compare(occlux, mean, stderr)
+    again = ob.compare(occlux, mean, stderr)
     assert again.z_scale == pytest.approx(report["z_scale"], rel=1e-4)
     zmap = oiio_read(tmp_path / f"{stem}-zmap.png")
     zmap = np.stack([zmap[c] for c in "RGB"], axis=-1)
-    z = oc.z_scores(occlux, mean, stderr)
-    np.testing.assert_allclose(zmap * 255, oc.error_map(occlux, z), atol=1.01)
-    off = occlux.beauty[..., 3] <= oc.MASK_ALPHA
+    z = ob.z_scores(occlux, mean, stderr)
+    np.testing.assert_allclose(zmap * 255, ob.error_map(occlux, z), atol=1.01)
+    off = occlux.beauty[..., 3] <= ob.MASK_ALPHA
     np.testing.assert_allclose(zmap[off], 128 / 255, atol=1e-6)
 
 
@@ -300,10 +301,10 @@ def test_wrong_mappings_fail(engine, tmp_path):
     run_occlux("export", str(engine), "-o", str(tmp_path), "--quiet", "--device", "cpu")
     run_occlux(
         "reference", str(engine), "--estimator", "ambient", "--spp", str(SPP),
-        "--seed", str(oc.OCCLUX_SEED), "-o", str(tmp_path), "--quiet",
+        "--seed", str(ob.OCCLUX_SEED), "-o", str(tmp_path), "--quiet",
     )  # fmt: skip
-    occlux = oc.read_reference(tmp_path / "engine-ambient.exr")
-    scene = oc.build_scene(engine, tmp_path / "engine.vdb", "ambient")
+    occlux = ob.read_reference(tmp_path / "engine-ambient.exr")
+    scene = ob.build_scene(engine, tmp_path / "engine.vdb", "ambient")
 
     # The camera turned by one degree about its up axis.
     from mathutils import Matrix
@@ -311,23 +312,23 @@ def test_wrong_mappings_fail(engine, tmp_path):
     camera = scene.camera
     true_pose = camera.matrix_world.copy()
     camera.matrix_world = true_pose @ Matrix.Rotation(math.radians(1.0), 4, "Y")
-    with pytest.raises(oc.HarnessError, match="forward"):
-        oc.check_camera(scene, occlux.camera)
-    turned = oc.render_scene(scene, SPP, SEEDS)
-    report = oc.compare(occlux, turned.mean, turned.stderr)
+    with pytest.raises(ob.HarnessError, match="forward"):
+        ob.check_camera(scene, occlux.camera)
+    turned = ob.render_scene(scene, SPP, SEEDS)
+    report = ob.compare(occlux, turned.mean, turned.stderr)
     assert not report.agrees(), report.table()
     assert report.rms_z > 2.0 and report.fraction_over_3 > 0.05, report.table()
 
     # Albedo 0.7 where the scene says 0.8.
     camera.matrix_world = true_pose
-    oc.check_camera(scene, occlux.camera)
+    ob.check_camera(scene, occlux.camera)
     for element in ramp_node(scene).color_ramp.elements:
         assert element.color[0] == pytest.approx(0.8)
         element.color = (0.7, 0.7, 0.7, element.color[3])
-    darker = oc.render_scene(scene, SPP, SEEDS)
-    report = oc.compare(occlux, darker.mean, darker.stderr)
+    darker = ob.render_scene(scene, SPP, SEEDS)
+    report = ob.compare(occlux, darker.mean, darker.stderr)
     assert not report.agrees(), report.table()
-    assert report.mean_z > 2 * oc.MAX_ABS_MEAN_Z, report.table()  # Occlux is brighter
+    assert report.mean_z > 2 * ob.MAX_ABS_MEAN_Z, report.table()  # Occlux is brighter
 
 
 # ---- Scenes the mapping refuses ----
@@ -338,7 +339,7 @@ def test_refuses_what_cycles_cannot_reproduce(phantom, ramp, tmp_path):
         'path = "phantom.nrrd"', f"path = {json.dumps(str(phantom.with_suffix('.nrrd')))}"
     )
     start, end = text.index("points = ["), text.index("]\n[camera]") + 2
-    many = ", ".join(f"{{ value = {v}, sigma_t = 1 }}" for v in range(oc.MAX_RAMP_STOPS + 1))
+    many = ", ".join(f"{{ value = {v}, sigma_t = 1 }}" for v in range(ob.MAX_RAMP_STOPS + 1))
     cases = {
         "many": (f"points = [{many}]\n", "holds at most 32"),
         "2d": ('preset = "boundary-2d"\n', "2D transfer function"),  # with units normalized
@@ -349,22 +350,22 @@ def test_refuses_what_cycles_cannot_reproduce(phantom, ramp, tmp_path):
         if classification.startswith("preset"):  # presets are placed on normalised values
             body = body.replace('units = "raw"', 'units = "normalized"')
         scene.write_text(body)
-        with pytest.raises(oc.HarnessError, match=message):
-            oc.load_scene(scene)
+        with pytest.raises(ob.HarnessError, match=message):
+            ob.load_scene(scene)
     # A preset is a 1D transfer function too, in normalized units placed on the tooth's
     # robust window (lo, hi inside the uint8 range): its points at lo + n (hi - lo).
-    tooth = oc.load_scene(Path(__file__).resolve().parents[2] / "examples" / "tooth.toml")
+    tooth = ob.load_scene(Path(__file__).resolve().parents[2] / "examples" / "tooth.toml")
     values = [p.value for p in tooth.points]
     lo, hi = values[0], values[-1]
     assert 0 <= lo < hi <= 255, values
     normalised = np.array([0, 0.12, 0.25, 0.45, 0.6, 1.0])
     assert values == pytest.approx(lo + normalised * (hi - lo), rel=1e-5)
     assert tooth.points[-1].sigma_t == pytest.approx(14.0)
-    with pytest.raises(oc.HarnessError, match="Cycles can reproduce ambient, single, multiple"):
-        oc.build_scene(phantom, ramp.parent / "ramp.vdb", "cone")
+    with pytest.raises(ob.HarnessError, match="Cycles can reproduce ambient, single, multiple"):
+        ob.build_scene(phantom, ramp.parent / "ramp.vdb", "cone")
     # A VDB exported from another scene: its grid is not where this scene puts the volume.
-    with pytest.raises(oc.HarnessError, match="export it again"):
-        oc.build_scene(phantom, ramp.parent / "ramp.vdb", "ambient")
+    with pytest.raises(ob.HarnessError, match="export it again"):
+        ob.build_scene(phantom, ramp.parent / "ramp.vdb", "ambient")
 
 
 # ---- What the harness takes from the core ----
@@ -438,7 +439,7 @@ def test_the_scene_from_the_core_is_the_scene_file(request, volume):
     """Camera frame, field of view (from a lens, from degrees) or orthographic scale, image
     size, lights and the transfer function in raw units, as the core resolved them."""
     path = request.getfixturevalue(volume)
-    spec, want = oc.load_scene(path), as_the_file_says(path)
+    spec, want = ob.load_scene(path), as_the_file_says(path)
     cam = spec.camera
     for key in ("position", "forward", "right", "up"):
         np.testing.assert_allclose(getattr(cam, key), want[key], rtol=1e-6, atol=1e-6)
@@ -469,13 +470,13 @@ def test_a_scene_object_builds_the_same_blender_scene(phantom, tmp_path, openvdb
     the harness maps it as it maps the file, and pads the sparse `value` grid on the scene's
     voxels."""
     scene = occlux.Scene.from_dict(tomllib.loads(phantom.read_text()), base_dir=phantom.parent)
-    from_object, from_file = oc.load_scene(scene), oc.load_scene(phantom)
+    from_object, from_file = ob.load_scene(scene), ob.load_scene(phantom)
     assert from_object.path is None and from_file.path == phantom
-    assert from_object == oc.SceneSpec(**{**vars(from_file), "path": None})
+    assert from_object == ob.SceneSpec(**{**vars(from_file), "path": None})
     volume = scene.load_volume()
     occlux.write_vdb(tmp_path / "phantom.vdb", {"value": volume})
-    built = oc.build_scene(scene, tmp_path / "phantom.vdb", "multiple", bounces=2, g=0.3)
-    oc.check_camera(built, scene.describe()["camera"])
+    built = ob.build_scene(scene, tmp_path / "phantom.vdb", "multiple", bounces=2, g=0.3)
+    ob.check_camera(built, scene.describe()["camera"])
     assert built.cycles.volume_bounces == 2
     assert sorted(o.data.type for o in built.objects if o.type == "LIGHT") == ["POINT", "SUN"]
     # Cycles renders the file as written: the scene's voxels plus one repeated on every side
@@ -492,7 +493,7 @@ def test_a_scene_object_builds_the_same_blender_scene(phantom, tmp_path, openvdb
     grid.copyToArray(dense, ijk=tuple(int(i) for i in np.round(ijk)))
     want = np.pad(np.asarray(volume.values), 1, mode="edge").transpose(2, 1, 0)
     np.testing.assert_array_equal(dense, want)
-    oc.remove_built()
+    ob.remove_built()
 
 
 def test_the_core_writes_what_the_harness_gives_it(tmp_path):
@@ -511,7 +512,7 @@ def test_the_core_writes_what_the_harness_gives_it(tmp_path):
     mean, stderr = rng.random((5, 7, 3)), rng.random((5, 7, 3)) * 1e-3
     layers = {"beauty": mean, "stderr": stderr}
     occlux.write_exr_layers(tmp_path / "c.exr", layers, metadata={"occlux/note": "{}"})
-    channels, attributes = oc.read_channels(tmp_path / "c.exr")
+    channels, attributes = ob.read_channels(tmp_path / "c.exr")
     for name, array in layers.items():
         for c, channel in enumerate("RGB"):
             want = array[..., c].astype(np.float32)
@@ -529,12 +530,12 @@ def test_the_core_writes_what_the_harness_gives_it(tmp_path):
         '[volume]\nphantom = "sphere"\nsize = 8\n[camera]\nposition = [0, -4, 0]\n'
         'width = 6\nheight = 4\n[[lights]]\ntype = "ambient"\nradiance = 0.5\n'
     )
-    result = occlux.reference(scene, estimator="ambient", spp=8, seed=oc.OCCLUX_SEED)
+    result = occlux.reference(scene, estimator="ambient", spp=8, seed=ob.OCCLUX_SEED)
     written = occlux.write_reference(
-        tmp_path, result, scene, stem="s-ambient", estimator="ambient", seed=oc.OCCLUX_SEED
+        tmp_path, result, scene, stem="s-ambient", estimator="ambient", seed=ob.OCCLUX_SEED
     )
     assert [Path(p).name for p in written] == ["s-ambient.exr", "s-ambient.png"]
-    image = oc.read_reference(tmp_path / "s-ambient.exr")
+    image = ob.read_reference(tmp_path / "s-ambient.exr")
     np.testing.assert_array_equal(image.beauty, result.mean)
     np.testing.assert_array_equal(image.stderr, result.stderr)
     assert image.reference["estimator"] == "ambient" and image.reference["spp"] == 8
@@ -545,18 +546,25 @@ def test_the_core_writes_what_the_harness_gives_it(tmp_path):
 
 
 def test_check_cycles_hands_every_option_to_the_harness(tmp_path, monkeypatch):
-    """`occlux check-cycles` runs `python -m occlux.cycles` with every option the harness takes
-    (a stand-in Python records them), and its defaults are the harness's."""
+    """`occlux check-cycles` runs `python -m occlux_lab.cycles`, with lab/python on PYTHONPATH
+    (occlux_lab is not installed), with every option the harness takes (a stand-in Python
+    records them), and its defaults are the harness's."""
     record = tmp_path / "argv"
+    pythonpath = tmp_path / "pythonpath"
     python = tmp_path / "python"
-    python.write_text(f'#!/bin/sh\n[ "$1" = -c ] && exit 0\nprintf "%s\\n" "$@" > "{record}"\n')
+    python.write_text(
+        f'#!/bin/sh\n[ "$1" = -c ] && exit 0\nprintf "%s\\n" "$@" > "{record}"\n'
+        f'printf "%s" "$PYTHONPATH" > "{pythonpath}"\n'
+    )
     python.chmod(0o755)
     monkeypatch.setenv("OCCLUX_PYTHON", str(python))
 
     def harness_args(*args: str) -> dict:
         run_occlux("check-cycles", *args)
         argv = record.read_text().splitlines()
-        assert argv[:2] == ["-m", "occlux.cycles"], argv
+        assert argv[:2] == ["-m", "occlux_lab.cycles"], argv
+        paths = [Path(p).resolve() for p in pythonpath.read_text().split(os.pathsep) if p]
+        assert LAB.resolve() in paths, pythonpath.read_text()
         return vars(harness_parser().parse_args(argv[2:]))
 
     defaults = vars(harness_parser().parse_args(["scene.toml"]))
@@ -598,7 +606,7 @@ irradiance = 3.0
 
 
 def test_the_curve_renders_cycles_once_per_sample_count(tmp_path):
-    """`python -m occlux.cycles.curve`: one timed render per sample count, written as EXR and
+    """`python -m occlux_lab.cycles.curve`: one timed render per sample count, written as EXR and
     listed in the JSON; more samples, less noise against Occlux's reference."""
     scene = tmp_path / "tiny.toml"
     scene.write_text(TINY_SUN)
@@ -655,7 +663,7 @@ def test_the_harness_settles_a_framed_camera_as_occlux_renders_it():
     """A camera with no position frames the visible content once the volume is loaded; the
     harness (and so Cycles, the chart's Cycles curve and EEVEE) must take that camera, as
     ``occlux render`` and ``occlux.reference`` do, not the one framed on the bare box."""
-    from occlux.cycles.scene import load_scene
+    from occlux.blender.scene import load_scene
 
     framed = TINY_SUN.replace("position = [2.4, -2.6, 1.4]", "direction = [1, -1, 0.5]")
     scene = occlux.Scene.from_toml(framed)

@@ -1,4 +1,4 @@
-"""EEVEE as a peer of ``occlux chart`` (``occlux.peers.eevee``).
+"""EEVEE as a peer of ``occlux chart`` (``occlux_lab.peers.eevee``).
 
 EEVEE's first render in a process compiles its shaders (about 30 s on Mesa's llvmpipe with a
 cold shader cache, minutes when the machine is loaded), so every EEVEE render of this file
@@ -20,8 +20,8 @@ from pathlib import Path
 import numpy as np
 import occlux
 import pytest
-from occlux.peers import eevee
-from occlux_testing import oiio_read
+from occlux_lab.peers import eevee
+from occlux_testing import lab_env, oiio_read
 
 SIZE = 32
 PHANTOM_SUN = f"""
@@ -71,7 +71,7 @@ def quiet_vulkan(monkeypatch):
 
 @pytest.fixture(scope="module")
 def run(tmp_path_factory) -> dict:
-    """`python -m occlux.peers.eevee SCENE --estimator single --out DIR`, in this process (its
+    """`python -m occlux_lab.peers.eevee SCENE --estimator single --out DIR`, in this process (its
     one shader compile), with TEST_LADDER; the report, the scene and Occlux's reference."""
     folder = tmp_path_factory.mktemp("eevee")
     scene = folder / "phantom-sun.toml"
@@ -176,10 +176,11 @@ def test_a_scene_it_cannot_map_exits_2(tmp_path, case):
     scene = tmp_path / f"{case}.toml"
     scene.write_text(PHANTOM_SUN.replace(old, new))
     result = subprocess.run(
-        [sys.executable, "-m", "occlux.peers.eevee", str(scene), "--out", str(tmp_path / "o")],
+        [sys.executable, "-m", "occlux_lab.peers.eevee", str(scene), "--out", str(tmp_path / "o")],
         capture_output=True,
         text=True,
         timeout=120,
+        env=lab_env(),
     )
     assert result.returncode == 2, result.stderr
     assert "error:" in result.stderr and message in result.stderr, result.stderr

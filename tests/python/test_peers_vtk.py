@@ -1,4 +1,4 @@
-"""VTK's GPU ray caster as a peer of ``occlux chart`` (occlux.peers.vtk): the mapping onto
+"""VTK's GPU ray caster as a peer of ``occlux chart`` (occlux_lab.peers.vtk): the mapping onto
 Occlux's optical model checked against Occlux itself, and the command line's contract.
 
 VTK renders offscreen through EGL on Mesa's software OpenGL (llvmpipe). A 32^3 CT phantom,
@@ -15,8 +15,8 @@ from pathlib import Path
 import numpy as np
 import occlux
 import pytest
-from occlux.peers import vtk as peer
-from occlux_testing import REPO, oiio_read, run_occlux
+from occlux_lab.peers import vtk as peer
+from occlux_testing import REPO, lab_env, oiio_read, run_occlux
 
 BACKGROUND = 0.05
 AMBIENT = '[[lights]]\ntype = "ambient"\nradiance = [0.5, 0.6, 0.7]'
@@ -153,10 +153,11 @@ def test_bright_lights_are_not_clipped() -> None:
 
 def run_cli(*args: str) -> subprocess.CompletedProcess[str]:
     return subprocess.run(
-        [sys.executable, "-m", "occlux.peers.vtk", *args],
+        [sys.executable, "-m", "occlux_lab.peers.vtk", *args],
         capture_output=True,
         text=True,
         cwd=REPO,
+        env=lab_env(),
     )
 
 

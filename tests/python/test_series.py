@@ -15,7 +15,7 @@ import numpy as np
 import occlux
 import occlux.usd
 import pytest
-from occlux.cycles import bundled_module
+from occlux.blender import bundled_module
 from occlux_testing import run_occlux
 
 FRAMES = 12

@@ -20,7 +20,8 @@ Python (numpy layers, an 8-bit picture, text, a reference) with the core's atomi
 (DESIGN.md's relative RMSE and bias over the volume's pixels, and a map with a colour key).
 ``series`` renders and exports a time series (one scene over many volumes) as Dask tasks,
 on a LocalCluster or any ``distributed.Client``; ``occlux series`` is its command line twin.
-``occlux.cycles`` checks the references against Blender's Cycles.
+``occlux.blender`` builds a scene in Blender 5 and renders it with Cycles, to compare with
+Occlux's images (what the Blender add-on's Check Against Cycles runs).
 
 ``occlux.usd`` authors the same USD stages through usd-core's ``pxr`` API, into a file or into
 a stage of your own pipeline.

@@ -107,7 +107,7 @@ pub struct IpsviParams {
 }
 
 /// Which scattered light IPSVI renders.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Scattering {
     /// The light's first scattering towards the eye (the `single` reference's model).
@@ -116,6 +116,18 @@ pub enum Scattering {
     /// Also the light scattered before, as diffuse fluence along each light ray (the
     /// `multiple` reference's model, approximated).
     Multiple,
+}
+
+impl std::str::FromStr for Scattering {
+    type Err = crate::error::Error;
+
+    fn from_str(name: &str) -> crate::error::Result<Self> {
+        let choices = [
+            ("single", Scattering::Single),
+            ("multiple", Scattering::Multiple),
+        ];
+        crate::names::parse_name("scattering", name, &choices)
+    }
 }
 
 impl Default for IpsviParams {

@@ -23,7 +23,6 @@
 //! paths that interact. The standard error is that of each pixel's mean over its samples.
 //! Each pixel draws from its own PCG stream, so images do not depend on thread scheduling.
 
-pub mod command;
 pub mod majorants;
 pub mod medium;
 pub mod phase;
