@@ -1,14 +1,14 @@
 """The Monte Carlo reference's time at equal error on the engine scenes (issue 16, item 8).
 
-Runs `occlux reference` on the engine at 256 x 256 under a lighting of
-../shared/bench/engine-cycles (`--lighting`: sun, single scattering with shadows, the default;
-ambient, the uniform sky; multi, the sun with 8 bounces) at several sample counts with this
-build and, side by side in the same run, with a baseline build (`--baseline BIN`, e.g. one
-built from an earlier commit), interleaved so both see the same machine load. Each point: wall
-time from scene file to image (median of `--repeats`), and relative RMSE and bias over the
-volume's pixels (`occlux.image_error`, DESIGN.md) against Cycles' 8192-spp reference. Then the
-speed-up at equal error: the baseline's time at its largest sample count over the time this
-build needs to reach the same error (interpolated between measured counts in log-log).
+Runs `occlux reference` on the engine at 256 x 256 under a lighting of ../shared/bench/engine-cycles
+(`--lighting`: sun, single scattering with shadows, the default; ambient, the uniform sky; multi,
+the sun with 8 bounces) at several sample counts with this build and, side by side in the same run,
+with a baseline build (`--baseline BIN`, e.g. one built from an earlier commit), interleaved so both
+see the same machine load. Each point: wall time from scene file to image (median of `--repeats`),
+and relative RMSE and bias over the volume's pixels (`occlux.image_error`,
+docs/architecture.md#error-measure) against Cycles' 8192-spp reference. Then the speed-up at equal
+error: the baseline's time at its largest sample count over the time this build needs to reach the
+same error (interpolated between measured counts in log-log).
 
     .venv/bin/python bench/reference_speed.py --baseline ../old/target/release/occlux
 """

@@ -5,9 +5,10 @@ checkout's add-on.
 
     .venv/bin/python docs/measure_blender_check.py [--volume PATH] [--size 256] [--json OUT]
 
-It prints one line per figure: relative RMSE and bias over the volume's pixels (DESIGN.md's
-measure, `occlux.image_error`) against the truth of the sky's light (the world scattered once,
-which Check Against Cycles renders from the scene), and Cycles' own noise:
+It prints one line per figure: relative RMSE and bias over the volume's pixels
+(docs/architecture.md#error-measure's measure, `occlux.image_error`) against the truth of the sky's
+light (the world scattered once, which Check Against Cycles renders from the scene), and Cycles' own
+noise:
 - Check Against Cycles' reports for the AO-shaded render (sweep-physical) and DOS, and for
   IPSVI under the sun (against the sun's truth);
 - Cycles' render of the scene with the AO wired into the material, AMBIENT shading (the

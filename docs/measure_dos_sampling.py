@@ -1,8 +1,8 @@
 """DOS with area and solid-angle sampling on the shared engine ambient scene
 (../shared/bench/engine-cycles: uniform sky of radiance 1, 256 x 256), in one run: render time
 (median of 3 after a warm-up, CPU) and relative RMSE / bias over the volume's pixels
-(`occlux.image_error`, DESIGN.md) against Cycles' 8192-spp reference and against Occlux's
-ambient Monte Carlo reference (256 spp).
+(`occlux.image_error`, docs/architecture.md#error-measure) against Cycles' 8192-spp reference and
+against Occlux's ambient Monte Carlo reference (256 spp).
 
     .venv/bin/python docs/measure_dos_sampling.py
 """

@@ -7,7 +7,7 @@ process (one shader compile). The figures of docs/peers-eevee.md.
 
 The harness ``occlux_lab`` is not installed: this script puts lab/python on sys.path itself.
 
-Each lighting's scene is written as ``occlux chart`` writes it (src/eval/chart/measure.rs
+Each lighting's scene is written as ``occlux chart`` writes it (lab/src/chart/measure.rs
 ``LightingMode::scene_tree``): the camera at SIZE^2, the volume path absolute, the lights of the
 lighting (the engine's sun for sun and multi, uniform ambient radiance 1 for ambient).
 """

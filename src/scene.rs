@@ -72,7 +72,7 @@ pub struct Scene {
     pub units_from_data: Option<String>,
     pub lighting: Lighting,
     /// The method; with `auto`, a placeholder that the planner's choice replaces when the
-    /// scene is rendered ([`crate::pipeline::run`]).
+    /// scene is rendered ([`crate::pipeline::settle`]).
     pub method: Method,
     /// `method = "auto"`: what the planner must meet.
     pub auto: Option<Budget>,

@@ -10,8 +10,9 @@
 //! - the light, per pixel: RGB within 1e-3 times max(1, peak radiance), as the ray caster's
 //!   twins, and the shadow layer's P within 1e-2, except on up to 1 % of the image (its A is
 //!   the alpha, to the bit on each twin);
-//! - the light, over the image: the relative RMSE of RGB over the volume's pixels (DESIGN.md's,
-//!   `design_error`) and the RMSE of the shadow layer's P, each at most 1e-3.
+//! - the light, over the image: the relative RMSE of RGB over the volume's pixels
+//!   (docs/architecture.md#error-measure, `design_error`) and the RMSE of the shadow layer's P,
+//!   each at most 1e-3.
 //!
 //! Why: the twins run the same operations in the same order, trilinear interpolation included
 //! (the shader loads the eight voxels and interpolates in f32 as the CPU does, so no sampler's

@@ -1,11 +1,11 @@
 """The check against Cycles, of the figure or of the reference:
 - The figure: the chosen Occlux method (AO-shaded, DOS, IPSVI, with the panel's settings)
-  against Cycles' path-traced truth of its lighting (the world for AO and DOS, suns and point
-  lamps for IPSVI): DESIGN.md's relative RMSE and bias over the volume's pixels, both times,
-  and a map of the difference with a colour key. Cycles renders the user's scene as it stands
-  (the dataset's Volume object with its material, the camera, the world, the lamps; see
-  `truth`); without an Occlux Volume object in the scene, the Cycles mapping (`occlux.blender`)
-  maps the panel's classification of the file onto Cycles (docs/cycles-mapping.md).
+  against Cycles' path-traced truth of its lighting (the world for AO and DOS, suns and point lamps
+  for IPSVI): docs/architecture.md#error-measure's relative RMSE and bias over the volume's pixels,
+  both times, and a map of the difference with a colour key. Cycles renders the user's scene as it
+  stands (the dataset's Volume object with its material, the camera, the world, the lamps; see
+  `truth`); without an Occlux Volume object in the scene, the Cycles mapping (`occlux.blender`) maps
+  the panel's classification of the file onto Cycles (docs/cycles-mapping.md).
 - The reference: Occlux's Monte Carlo reference against Cycles' rendering of the Cycles
   mapping of the same scene, within noise (z scores).
 Occlux's half runs on the job's thread; Cycles' renders (bpy: the main thread) are the job's

@@ -1,9 +1,9 @@
-//! `occlux ipsvi-accuracy`: IPSVI against the path-traced single-scattering truth of the same
-//! scene (Occlux's `single` Monte Carlo reference, or a Cycles render given with `--cycles`),
-//! over its parameters (line width, cache size, piecewise integration, early ray termination),
-//! under each scene's own directional and point lights (its ambient ones left out) or a lamp;
-//! relative RMSE and bias over the volume's pixels (DESIGN.md), and the median time beside
-//! unshaded DVR's, measured in the same run on the same device (the CPU by default).
+//! `occlux ipsvi-accuracy`: IPSVI against the path-traced single-scattering truth of the same scene
+//! (Occlux's `single` Monte Carlo reference, or a Cycles render given with `--cycles`), over its
+//! parameters (line width, cache size, piecewise integration, early ray termination), under each
+//! scene's own directional and point lights (its ambient ones left out) or a lamp; relative RMSE
+//! and bias over the volume's pixels (docs/architecture.md#error-measure), and the median time
+//! beside unshaded DVR's, measured in the same run on the same device (the CPU by default).
 
 use super::bench::{timed, timed_keeping};
 use glam::Vec3;

@@ -1,10 +1,10 @@
-//! `occlux sweep-accuracy`: AO-shaded DVR with an occlusion sweep's AO volume (the physical
-//! mode's visibility by default, or the geometric mode's AO with `--method sweep`) under the
-//! ambient light of each scene (radiance 1, background 1, no direct light, isotropic phase),
-//! against the path-traced truth of the same scene: Occlux's ambient Monte Carlo reference, or
-//! a Cycles render given with `--cycles` (for the engine scene of
-//! ../shared/bench/engine-cycles). Error over the volume's pixels as DESIGN.md defines it, and
-//! the time of each stage; table and JSON.
+//! `occlux sweep-accuracy`: AO-shaded DVR with an occlusion sweep's AO volume (the physical mode's
+//! visibility by default, or the geometric mode's AO with `--method sweep`) under the ambient light
+//! of each scene (radiance 1, background 1, no direct light, isotropic phase), against the
+//! path-traced truth of the same scene: Occlux's ambient Monte Carlo reference, or a Cycles render
+//! given with `--cycles` (for the engine scene of ../shared/bench/engine-cycles). Error over the
+//! volume's pixels as docs/architecture.md#error-measure defines it, and the time of each stage;
+//! table and JSON.
 
 use glam::Vec3;
 use occlux::ao::{self, AoMethod, AoVolumeParams};

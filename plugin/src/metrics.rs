@@ -1,6 +1,7 @@
 //! A method's image against a reference image of the same scene (`occlux.image_error`,
-//! `occlux.write_error_map`): DESIGN.md's error figures and the map of where they differ, as
-//! the core computes them (src/metric/), for the add-on's Check Against Cycles.
+//! `occlux.write_error_map`): docs/architecture.md#error-measure's error figures and the map of
+//! where they differ, as the core computes them (src/metric/), for the add-on's Check Against
+//! Cycles.
 
 use crate::writers::as_array;
 use crate::{py_err, OccluxError};
@@ -60,12 +61,12 @@ fn image_pair(
     Ok((image, (reference, size)))
 }
 
-/// DESIGN.md's error of `image` against `reference` (arrays of shape (height, width, 3 or 4),
-/// linear RGB; alpha ignored) over the volume's pixels, those where the reference's grey
-/// differs from `background` (the background's grey) by more than 0.5 % of it: a dict with
-/// `pixels`, `rel_rmse` (RMSE of the RGB difference / the reference's mean there), `bias`
-/// (mean difference / that mean) and `noise` (the RMS of `stderr`, the reference's standard
-/// error if given, / that mean; else 0).
+/// docs/architecture.md#error-measure's error of `image` against `reference` (arrays of shape
+/// (height, width, 3 or 4), linear RGB; alpha ignored) over the volume's pixels, those where the
+/// reference's grey differs from `background` (the background's grey) by more than 0.5 % of it: a
+/// dict with `pixels`, `rel_rmse` (RMSE of the RGB difference / the reference's mean there), `bias`
+/// (mean difference / that mean) and `noise` (the RMS of `stderr`, the reference's standard error
+/// if given, / that mean; else 0).
 #[pyfunction]
 #[pyo3(signature = (image, reference, background, stderr = None))]
 fn image_error<'py>(

@@ -1,6 +1,6 @@
 //! Classification: transfer functions map a value (and optionally the gradient magnitude) to the
-//! optical properties of the model in DESIGN.md: an achromatic extinction sigma_t per world unit,
-//! an RGB single-scattering albedo and an optional RGB emission.
+//! optical properties of the model of docs/architecture.md#optical-model: an achromatic extinction
+//! sigma_t per world unit, an RGB single-scattering albedo and an optional RGB emission.
 //!
 //! A transfer function is baked into a [`Lut`] over the volume's value range (and gradient
 //! range) that the CPU and GPU renderers both read with the same linear interpolation, so the

@@ -1,5 +1,6 @@
-//! Multilayer OpenEXR, the layout of DESIGN.md: one file per render, layers `beauty` (RGBA),
-//! `depth` (Z) and per-method layers, with the camera and parameters as text attributes.
+//! Multilayer OpenEXR, the layout of docs/architecture.md#export-conventions: one file per render,
+//! layers `beauty` (RGBA), `depth` (Z) and per-method layers, with the camera and parameters as
+//! text attributes.
 //!
 //! Layers are stored the way Blender, Nuke and OpenImageIO name them in one part: channel
 //! `layer.channel` (e.g. `beauty.R`, `depth.Z`). Values are float16 by default; depth is always

@@ -42,7 +42,7 @@ pub struct Truth {
     pub camera: Camera,
     pub mean: Vec<[f32; 3]>,
     pub background: f32,
-    /// Relative RMSE of the mean from its own noise (DESIGN.md's measure).
+    /// Relative RMSE of the mean from its own noise (docs/architecture.md#error-measure).
     pub noise: f64,
     /// The same for one sample per pixel: `noise * sqrt(spp)`.
     pub noise_per_sample: f64,

@@ -653,9 +653,9 @@ bpy.ops.wm.save_as_mainfile(filepath={str(blend)!r})
 def test_check_against_cycles_checks_the_figure(
     extension: Path, tmp_path: Path, method: str
 ) -> None:
-    """Check the figure: the chosen method with the panel's settings against Cycles' truth of
-    its lighting, on the phantom. The report's relative RMSE and bias are the ones numpy
-    computes from the EXR the check wrote (Occlux's image and Cycles' mean, DESIGN.md's
+    """Check the figure: the chosen method with the panel's settings against Cycles' truth of its
+    lighting, on the phantom. The report's relative RMSE and bias are the ones numpy computes from
+    the EXR the check wrote (Occlux's image and Cycles' mean, docs/architecture.md#error-measure's
     measure); the panel shows them; the error map is at least 256 pixels wide with a colour key
     below the image; a lamp DOS and AO do not render is named, not refused."""
     blend = tmp_path / "project" / "scene.blend"

@@ -211,7 +211,7 @@ struct Truth<'a> {
 }
 
 impl Truth<'_> {
-    /// Relative RMSE and bias of an image against the truth (DESIGN.md's measure).
+    /// Relative RMSE and bias of an image against the truth (docs/architecture.md#error-measure).
     fn error(&self, image: &[[f32; 4]]) -> Result<(f64, f64)> {
         let (_, rmse, bias, _) = design_error(image, &self.mean, None, self.background)?;
         Ok((rmse, bias))

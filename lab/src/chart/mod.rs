@@ -1,14 +1,14 @@
-//! `occlux chart`: speed against accuracy. Every registered method at each of its chart
-//! settings ([`occlux::registry::MethodSpec::chart`]: a method joins by registering), Occlux's
-//! Monte Carlo and Cycles at increasing samples per pixel, and the peers a user would pick
-//! instead (VTK, EEVEE: [`crate::peers`]) along their quality axes, on each scene under
-//! each lighting, all measured against the path-traced truth of that lighting ([`measure`]).
-//! Time: the median wall time after a warm-up render, from the loaded volume to the image,
-//! everything the method computes on the way included (an AO volume, the GPU upload); Cycles'
-//! from scratch, its volume build included, as a user pays it; each peer states its own. Error: relative RMSE and bias over the volume's
-//! pixels (DESIGN.md). Writes OUT/chart.json, OUT/chart.csv, OUT/chart.md (the equal-error
-//! table: [`table`]), OUT/chart.svg and OUT/chart.png (log time against log error, a panel per
-//! scene and lighting, the Pareto front filled, the path tracers and peers as lines).
+//! `occlux chart`: speed against accuracy. Every registered method at each of its chart settings
+//! ([`occlux::registry::MethodSpec::chart`]: a method joins by registering), Occlux's Monte Carlo
+//! and Cycles at increasing samples per pixel, and the peers a user would pick instead (VTK, EEVEE:
+//! [`crate::peers`]) along their quality axes, on each scene under each lighting, all measured
+//! against the path-traced truth of that lighting ([`measure`]). Time: the median wall time after a
+//! warm-up render, from the loaded volume to the image, everything the method computes on the way
+//! included (an AO volume, the GPU upload); Cycles' from scratch, its volume build included, as a
+//! user pays it; each peer states its own. Error: relative RMSE and bias over the volume's pixels
+//! (docs/architecture.md#error-measure). Writes OUT/chart.json, OUT/chart.csv, OUT/chart.md (the
+//! equal-error table: [`table`]), OUT/chart.svg and OUT/chart.png (log time against log error, a
+//! panel per scene and lighting, the Pareto front filled, the path tracers and peers as lines).
 
 pub mod measure;
 pub mod pareto;

@@ -17,10 +17,10 @@ grids, OpenEXR layers and USD stages that Blender and other tools read::
 ``write_exr_layers``, ``write_png``, ``write_text`` and ``write_reference`` write data made in
 Python (numpy layers, an 8-bit picture, text, a reference) with the core's atomic writers.
 ``image_error`` and ``write_error_map`` measure an image against a reference of the same scene
-(DESIGN.md's relative RMSE and bias over the volume's pixels, and a map with a colour key).
-``series`` renders and exports a time series (one scene over many volumes) as Dask tasks,
-on a LocalCluster or any ``distributed.Client``; ``occlux series`` is its command line twin.
-``occlux.blender`` builds a scene in Blender 5 and renders it with Cycles, to compare with
+(docs/architecture.md#error-measure's relative RMSE and bias over the volume's pixels, and a map
+with a colour key). ``series`` renders and exports a time series (one scene over many volumes) as
+Dask tasks, on a LocalCluster or any ``distributed.Client``; ``occlux series`` is its command line
+twin. ``occlux.blender`` builds a scene in Blender 5 and renders it with Cycles, to compare with
 Occlux's images (what the Blender add-on's Check Against Cycles runs).
 
 ``occlux.usd`` authors the same USD stages through usd-core's ``pxr`` API, into a file or into

@@ -2,10 +2,10 @@
 //! the visibility V(x), the mean transmittance from x over all directions, computed in eight
 //! sweeps over the grid, one per octant of directions.
 //!
-//! Under uniform ambient light with an isotropic phase function the exact single-scattering
-//! image is the ambient radiance times V(x), integrated along the view ray (DESIGN.md): an
-//! accurate V makes AO-shaded DVR exact. V is the mean of the octant visibilities V_s, each the
-//! mean transmittance over its octant's directions.
+//! Under uniform ambient light with an isotropic phase function the exact single-scattering image
+//! is the ambient radiance times V(x), integrated along the view ray
+//! (docs/architecture.md#truth-per-lighting): an accurate V makes AO-shaded DVR exact. V is the
+//! mean of the octant visibilities V_s, each the mean transmittance over its octant's directions.
 //!
 //! The sweep. Light reaching x from octant s last crossed one of x's seven neighbours x + n in
 //! that octant (n with components in {0, s_i}, not all zero: three faces, three edges, a

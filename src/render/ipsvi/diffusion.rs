@@ -13,7 +13,7 @@
 //! such a width does: an extra absorption D B^2, B^2 = 2 (pi / (L + 4 D))^2 (faces extrapolated
 //! by 2 D). Without this the half-space alone overshot the `multiple` reference by +17 % on the
 //! engine and +30 % on the bonsai and the tooth, whose bone (albedo near 1) loses its light
-//! mostly sideways; with it, within a few per cent (README). In units of the extinction, with
+//! mostly sideways; with it, within a few per cent (docs/ipsvi.md). In units of the extinction, with
 //! D = 1 / (3 (1 - a g)) (the reduced scattering of the similarity relation) and
 //! mu = sqrt(3 (1 - a) (1 - a g) + B^2) (the diffuse light's effective attenuation), the
 //! diffuse fluence per unit irradiance solves
@@ -31,8 +31,8 @@
 //! phi stays finite, so [`fluence`] evaluates them in a form without that cancellation. The
 //! diffuse light is taken as isotropic: it scatters towards the eye with phase 1 / (4 pi).
 //! What the slab leaves out, light escaping sideways and light arriving from other
-//! directions, is measured against the path-traced `multiple` reference (README: "IPSVI,
-//! multiple scattering").
+//! directions, is measured against the path-traced `multiple` reference (docs/ipsvi.md,
+//! "Multiple scattering").
 
 /// Optical depths beyond this are treated as this (the fluence there is below 1e-30 unless
 /// the albedo is 1).

@@ -13,7 +13,7 @@ DEFAULT_SEEDS = 32
 """Cycles renders per comparison: the per-pixel standard error is their spread, so it needs a
 dozen or more (with K renders the z scores follow Student's t with about K - 1 degrees of freedom
 where Cycles' noise dominates). ``occlux check-cycles`` has the same default
-(src/eval/cycles.rs)."""
+(lab/src/cycles.rs)."""
 
 DEFAULT_BOUNCES = 8
 """Volume bounces of the "multiple" estimator unless told otherwise (as ``occlux reference``)."""
