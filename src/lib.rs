@@ -13,6 +13,7 @@ pub mod framing;
 pub mod gpu;
 pub mod json;
 pub mod lights;
+pub mod method;
 pub mod metric;
 pub mod names;
 pub mod octahedral;

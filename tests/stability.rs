@@ -14,7 +14,8 @@ use common::render::{
 };
 use glam::Vec3;
 use occlux::metric::design_error;
-use occlux::registry::{find, ParamKind, METHODS};
+use occlux::method::ParamKind;
+use occlux::registry::{find, METHODS};
 use occlux::render::reference::{Estimator, ReferenceImage};
 use occlux::render::{RenderImage, Rendered};
 use occlux::scene::{Method, Scene};

@@ -6,7 +6,8 @@
 
 use occlux::gpu::Compute;
 use occlux::progress::NoProgress;
-use occlux::registry::{find, MethodSpec, ParamKind, METHODS};
+use occlux::method::{MethodSpec, ParamKind};
+use occlux::registry::{find, METHODS};
 use occlux::render::reference::{self, Estimator, ReferenceInput, ReferenceParams};
 use occlux::render::{MethodInput, Rendered};
 use occlux::scene::{Method, Scene};

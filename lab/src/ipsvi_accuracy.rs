@@ -14,7 +14,7 @@ use occlux::gpu::{Compute, DeviceChoice};
 use occlux::lights::Light;
 use occlux::metric::design_error;
 use occlux::progress::NoProgress;
-use occlux::registry::RenderMethod;
+use occlux::method::RenderMethod;
 use occlux::render::half_angle::{self, HalfAngleInput, HalfAngleParams};
 use occlux::render::ipsvi::cache::{CacheMap, Resolution};
 use occlux::render::ipsvi::{self, IpsviInput, IpsviParams, Scattering};

@@ -7,7 +7,7 @@ use crate::ao::vao::{self, Estimator, FieldKind, VaoParams, MAX_RADIUS};
 use crate::ao::{self as ao_volumes, AoConvention, AoMethod, AoVolumeParams};
 use crate::error::Result;
 use crate::lights::LightKind;
-use crate::registry::{
+use crate::method::{
     Choice, MethodSpec, Model, ParamKind, ParamSpec, Range, RenderMethod, ALL_LIGHTS,
 };
 use crate::render::raycast::{

@@ -15,7 +15,7 @@ use occlux::gpu::Compute;
 use occlux::lights::Lighting;
 use occlux::metric::design_error;
 use occlux::progress::NoProgress;
-use occlux::registry::Model;
+use occlux::method::Model;
 use occlux::registry::{Method, METHODS};
 use occlux::render::reference::{self, Estimator, ReferenceInput, ReferenceParams};
 use occlux::render::MethodInput;
@@ -124,7 +124,7 @@ pub struct Point {
     pub rel_rmse: f64,
     pub rel_bias: f64,
     /// The same against the path-traced reference of the method's own model
-    /// ([`occlux::registry::RenderMethod::model`]: the DOS cone, single scattering for IPSVI
+    /// ([`occlux::method::RenderMethod::model`]: the DOS cone, single scattering for IPSVI
     /// under the multiple-scattering lighting), at the truth's samples and seed, under the
     /// lights the method renders: its error as an approximation, apart from its model's. None
     /// where the method has no such model (gradient shading, the unoccluded ambient term).

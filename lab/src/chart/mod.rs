@@ -1,5 +1,5 @@
 //! `occlux chart`: speed against accuracy. Every registered method at each of its chart settings
-//! ([`occlux::registry::MethodSpec::chart`]: a method joins by registering), Occlux's Monte Carlo
+//! ([`occlux::method::MethodSpec::chart`]: a method joins by registering), Occlux's Monte Carlo
 //! and Cycles at increasing samples per pixel, and the peers a user would pick instead (VTK, EEVEE:
 //! [`crate::peers`]) along their quality axes, on each scene under each lighting, all measured
 //! against the path-traced truth of that lighting ([`measure`]). Time: the median wall time after a

@@ -3,7 +3,7 @@
 use super::{ClipPlane, DosInput, DosParams, MAX_CLIP_PLANES, MAX_GRID};
 use crate::error::{Error, Result};
 use crate::lights::LightKind;
-use crate::registry::{Choice, MethodSpec, Model, ParamKind, ParamSpec, Range, RenderMethod};
+use crate::method::{Choice, MethodSpec, Model, ParamKind, ParamSpec, Range, RenderMethod};
 use crate::render::reference::Estimator;
 use crate::render::{MethodInput, Rendered};
 

@@ -93,7 +93,7 @@ use crate::camera::{box_corners, Camera, Projection};
 use crate::classify::{Lut, Optical};
 use crate::error::{Error, Result};
 use crate::lights::Lighting;
-use crate::registry::RenderMethod;
+use crate::method::RenderMethod;
 use crate::volume::Volume;
 use glam::{Vec2, Vec3};
 use serde::{Deserialize, Serialize};

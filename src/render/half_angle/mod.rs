@@ -42,7 +42,7 @@ use crate::camera::Camera;
 use crate::classify::Lut;
 use crate::error::{Error, Result};
 use crate::lights::Lighting;
-use crate::registry::RenderMethod;
+use crate::method::RenderMethod;
 use crate::volume::Volume;
 use serde::{Deserialize, Serialize};
 

@@ -3,7 +3,7 @@
 use super::{IpsviInput, IpsviParams, Scattering, MAX_CACHE_SIZE};
 use crate::error::Result;
 use crate::lights::LightKind;
-use crate::registry::{Choice, MethodSpec, Model, ParamKind, ParamSpec, Range, RenderMethod};
+use crate::method::{Choice, MethodSpec, Model, ParamKind, ParamSpec, Range, RenderMethod};
 use crate::render::raycast::{ERT_THRESHOLD, STEP};
 use crate::render::reference::phase::G;
 use crate::render::reference::Estimator;

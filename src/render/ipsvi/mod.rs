@@ -74,7 +74,7 @@ use crate::classify::Lut;
 use crate::error::{Error, Result};
 use crate::lights::{Light, Lighting};
 use crate::progress::Progress;
-use crate::registry::RenderMethod;
+use crate::method::RenderMethod;
 use crate::render::{Factor, RenderImage, BACKGROUND_DEPTH};
 use crate::volume::Volume;
 use cache::{CacheMap, Resolution};

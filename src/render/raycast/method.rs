@@ -3,7 +3,7 @@
 
 use super::{GradientShading, RaycastInput, RaycastParams, Shading};
 use crate::error::Result;
-use crate::registry::{MethodSpec, ParamKind, ParamSpec, Range, RenderMethod, ALL_LIGHTS};
+use crate::method::{MethodSpec, ParamKind, ParamSpec, Range, RenderMethod, ALL_LIGHTS};
 use crate::render::{MethodInput, Rendered};
 use serde::{Deserialize, Serialize};
 

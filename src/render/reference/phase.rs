@@ -1,7 +1,7 @@
 //! Phase functions and direction sampling. Directions are directions of propagation: light
 //! travelling along `w_in` scatters into `w_out` with probability density p(w_in . w_out).
 
-use crate::registry::{ParamKind, ParamSpec, Range};
+use crate::method::{ParamKind, ParamSpec, Range};
 use glam::Vec3;
 use rand::Rng;
 use std::f32::consts::PI;
