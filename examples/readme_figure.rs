@@ -10,7 +10,7 @@ use occlux::error::{Error, Result};
 use occlux::export::png::{tone_map, write_rgb_png};
 use occlux::font::{draw_text_centred, system_font, FONT_PATHS};
 use occlux::gpu::{Compute, DeviceChoice};
-use occlux::pipeline::render;
+use occlux::pipeline::{render, Settled};
 use occlux::progress::NoProgress;
 use occlux::render::RenderImage;
 use occlux::scene::Scene;
@@ -79,7 +79,12 @@ fn figure(out: &Path) -> Result<()> {
         };
         let scene = Scene::parse(&text, Path::new("."))?;
         let loaded = scene.load()?;
-        let rendered = render(&loaded.scene, &loaded.volume, &compute, &NoProgress)?;
+        let rendered = render(
+            &Settled::named(&loaded.scene),
+            &loaded.volume,
+            &compute,
+            &NoProgress,
+        )?;
         images.push((caption, rendered.image));
     }
     let (rgb, size) = compose(&images);

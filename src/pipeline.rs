@@ -29,16 +29,46 @@ pub enum Outputs {
     Export(VdbOptions),
 }
 
+/// A scene ready to render: an `auto` scene with the planner's choice in place of its method
+/// and the plan that chose it ([`settle`]); a scene that names its method as it is
+/// ([`Settled::named`]).
+#[derive(Clone, Debug)]
+pub struct Settled<'a> {
+    pub scene: Cow<'a, Scene>,
+    /// What the planner chose and its record for the EXR header; None when the scene named its
+    /// method.
+    pub planned: Option<Planned>,
+}
+
+impl<'a> Settled<'a> {
+    /// A scene that names its method (an `auto` scene is refused when it renders: it is
+    /// [`settle`]d first).
+    pub fn named(scene: &'a Scene) -> Self {
+        Self {
+            scene: Cow::Borrowed(scene),
+            planned: None,
+        }
+    }
+}
+
+impl std::ops::Deref for Settled<'_> {
+    type Target = Scene;
+
+    fn deref(&self) -> &Scene {
+        &self.scene
+    }
+}
+
 /// An `auto` scene planned (the planner's progress, what it chose and why, to `say`): the
-/// scene with the chosen method and its [`crate::plan::Planned`]; any other scene as it is.
+/// scene with the chosen method and its [`Planned`]; any other scene as it is.
 pub fn settle<'a>(
     scene: &'a Scene,
     volume: &Volume,
     compute: &Compute,
     say: &dyn Fn(&str),
-) -> Result<Cow<'a, Scene>> {
-    let Some(budget) = scene.auto.filter(|_| scene.planned.is_none()) else {
-        return Ok(Cow::Borrowed(scene));
+) -> Result<Settled<'a>> {
+    let Some(budget) = scene.auto else {
+        return Ok(Settled::named(scene));
     };
     let lut = scene.classification.bake(volume);
     let subject = Subject {
@@ -52,27 +82,30 @@ pub fn settle<'a>(
     })?;
     say(&plan.explain());
     let choice = plan.choice().clone();
-    let mut settled = scene.clone();
+    let mut chosen = scene.clone();
     if let Choice::Method { method, .. } = &choice {
-        settled.method = method.clone();
+        chosen.method = method.clone();
     }
-    settled.planned = Some(Planned {
-        record: plan.record(),
-        choice,
-    });
-    Ok(Cow::Owned(settled))
+    Ok(Settled {
+        scene: Cow::Owned(chosen),
+        planned: Some(Planned {
+            record: plan.record(),
+            choice,
+        }),
+    })
 }
 
 /// Renders a scene's method for an already loaded volume; an `auto` scene must be settled
 /// ([`settle`]) first, so that what is written says what rendered it.
 pub fn render(
-    scene: &Scene,
+    settled: &Settled,
     volume: &Volume,
     compute: &Compute,
     progress: &dyn Progress,
 ) -> Result<Rendered> {
+    let scene = &*settled.scene;
     let lut = scene.classification.bake(volume);
-    if let Some(planned) = &scene.planned {
+    if let Some(planned) = &settled.planned {
         let subject = Subject {
             scene,
             volume,
@@ -134,7 +167,7 @@ impl Default for OutputOptions {
 /// the preview `OUT/STEM.png`, creating `out_dir` if needed. Returns the paths written.
 pub fn write_render(
     img: &RenderImage,
-    scene: &Scene,
+    settled: &Settled,
     out_dir: &Path,
     stem: &str,
     options: &OutputOptions,
@@ -143,7 +176,7 @@ pub fn write_render(
     write_image_files(
         img,
         &render_layers(img),
-        &header_metadata(scene),
+        &header_metadata(settled),
         &mut set,
         stem,
         options,
@@ -162,7 +195,7 @@ pub fn write_reference(
     stem: &str,
     exposure: f32,
 ) -> Result<Vec<PathBuf>> {
-    let mut meta = header_metadata(scene);
+    let mut meta = header_metadata(&Settled::named(scene));
     let (g, bounces, aperture) = match params.estimator {
         Estimator::Multiple { bounces } => (params.g, Some(bounces), None),
         Estimator::Single => (params.g, None, None),
@@ -231,13 +264,14 @@ pub const EXPORT_GRIDS: [&str; 2] = ["density", "value"];
 /// Returns the paths written.
 pub fn export(
     rendered: &Rendered,
-    scene: &Scene,
+    settled: &Settled,
     volume: &Volume,
     out_dir: &Path,
     stem: &str,
     output: &OutputOptions,
     vdb: &VdbOptions,
 ) -> Result<Vec<PathBuf>> {
+    let scene = &*settled.scene;
     let vdb_name = format!("{stem}.vdb");
     let density = ExportDensity::new(&scene.classification, volume)?;
     let grids = export_grids(&rendered.grids, &density, volume);
@@ -256,7 +290,7 @@ pub fn export(
     write_vdb(&set.path(&vdb_name)?, &grids, vdb)?;
     write_usda(&set.path(&format!("{stem}.usda"))?, &stage)?;
     let image = &rendered.image;
-    let meta = header_metadata(scene);
+    let meta = header_metadata(settled);
     write_image_files(image, &render_layers(image), &meta, &mut set, stem, output)?;
     set.commit()
 }
@@ -385,11 +419,12 @@ fn middle_slice(volume: &Volume) -> RenderImage {
 /// Camera, method parameters and lights for the EXR header, each as JSON text (`occlux/camera`:
 /// [`crate::camera::Camera::describe`]; `occlux/method`: the method tagged by `method`, as in a
 /// scene's `[render]`; `occlux/lighting`: `{lights, background}`).
-pub fn header_metadata(scene: &Scene) -> BTreeMap<String, String> {
+pub fn header_metadata(settled: &Settled) -> BTreeMap<String, String> {
+    let scene = &*settled.scene;
     let mut meta = BTreeMap::new();
     meta.insert("occlux/version".into(), env!("CARGO_PKG_VERSION").into());
     meta.insert("occlux/camera".into(), scene.camera.describe().to_string());
-    match &scene.planned {
+    match &settled.planned {
         Some(planned) => insert_plan(&mut meta, &planned.record),
         None => {
             meta.insert("occlux/method".into(), scene.method.to_json().to_string());

@@ -40,6 +40,7 @@
 //! (and optionally `scattering = "multiple"`, `pilot = 64`) leaves the choice to the planner
 //! ([`crate::plan`]) when the scene is rendered.
 
+use crate::budget::{Budget, Scattering};
 use crate::camera::{Camera, Projection};
 use crate::classify::{
     presets, Classification, ControlPoint, TransferFunction, TransferFunction1D,
@@ -47,7 +48,6 @@ use crate::classify::{
 };
 use crate::error::{Error, Result};
 use crate::lights::{Light, Lighting};
-use crate::plan::{Budget, Planned, Scattering};
 pub use crate::registry::Method;
 use crate::series::FrameSpec;
 use crate::volume::{self, phantom, LoadOptions, NonFinite, RawSpec, ScalarType, Volume};
@@ -76,9 +76,6 @@ pub struct Scene {
     pub method: Method,
     /// `method = "auto"`: what the planner must meet.
     pub auto: Option<Budget>,
-    /// What the planner chose, set when an `auto` scene is settled for rendering
-    /// ([`crate::pipeline::settle`]): the choice, and its record for the EXR header.
-    pub planned: Option<Planned>,
 }
 
 /// How [`Scene::load`] frames the visible content.
@@ -439,7 +436,6 @@ impl SceneFile {
             },
             auto,
             method,
-            planned: None,
         };
         scene.lighting.validate()?;
         // A method lit by fewer kinds of light than the scene has is refused here, not after

@@ -11,6 +11,7 @@ use glam::Vec3;
 use occlux::classify::presets::PRESETS;
 use occlux::framing::{self, content};
 use occlux::gpu::Compute;
+use occlux::pipeline::Settled;
 use occlux::progress::NoProgress;
 use occlux::render::RenderImage;
 use occlux::scene::Scene;
@@ -55,7 +56,7 @@ fn fitted(volume: &Volume) -> Volume {
 }
 
 fn render(scene: &Scene, volume: &Volume) -> RenderImage {
-    occlux::pipeline::render(scene, volume, &Compute::Cpu, &NoProgress)
+    occlux::pipeline::render(&Settled::named(scene), volume, &Compute::Cpu, &NoProgress)
         .unwrap()
         .image
 }

@@ -4,9 +4,9 @@
 
 use occlux::export::exr::read_exr;
 use occlux::gpu::Compute;
-use occlux::pipeline::{self, OutputOptions};
-use occlux::progress::NoProgress;
 use occlux::method::{MethodSpec, ParamKind};
+use occlux::pipeline::{self, OutputOptions, Settled};
+use occlux::progress::NoProgress;
 use occlux::registry::{self, Method, METHODS};
 use occlux::scene::Scene;
 use serde_json::{json, Map, Value};
@@ -241,7 +241,7 @@ method = "gradient"
     assert!(err.contains(&direct), "{err} / {direct}");
     scene.method = Method::Dos(Default::default());
     let volume = scene.load_volume().unwrap();
-    let render = pipeline::render(&scene, &volume, &Compute::Cpu, &NoProgress);
+    let render = pipeline::render(&Settled::named(&scene), &volume, &Compute::Cpu, &NoProgress);
     assert_eq!(render.err().map(|e| e.to_string()), Some(direct));
 }
 
@@ -267,11 +267,12 @@ distance = "approximate"
 "#;
     let scene = Scene::parse(text, Path::new(".")).unwrap();
     let volume = scene.load_volume().unwrap();
-    let rendered = pipeline::render(&scene, &volume, &Compute::Cpu, &NoProgress).unwrap();
+    let rendered =
+        pipeline::render(&Settled::named(&scene), &volume, &Compute::Cpu, &NoProgress).unwrap();
     let dir = tempfile::tempdir().unwrap();
     let written = pipeline::write_render(
         &rendered.image,
-        &scene,
+        &Settled::named(&scene),
         dir.path(),
         "s",
         &OutputOptions::default(),

@@ -13,8 +13,8 @@ use common::render::{
     check_finite, finite_problems, range_of, reference_of, render, render_on, scene, Range,
 };
 use glam::Vec3;
-use occlux::metric::design_error;
 use occlux::method::ParamKind;
+use occlux::metric::design_error;
 use occlux::registry::{find, METHODS};
 use occlux::render::reference::{Estimator, ReferenceImage};
 use occlux::render::{RenderImage, Rendered};

@@ -7,6 +7,7 @@ use occlux::ao::reference::{ao_reference_at, AoReferenceParams, AoVariant};
 use occlux::ao::sweep::cpu::visibility;
 use occlux::ao::{ao_volume, AoMethod, AoVolumeParams};
 use occlux::gpu::Compute;
+use occlux::pipeline::Settled;
 use occlux::progress::NoProgress;
 use occlux::scene::Scene;
 use occlux::volume::{phantom, Volume};
@@ -207,7 +208,9 @@ fn ao_shaded_dvr_with_occlusion_sweeping_exports_its_signed_distance() {
                 ao_light = \"sky\"\n";
     let scene = Scene::parse(text, Path::new(".")).unwrap();
     let volume = scene.load_volume().unwrap();
-    let rendered = occlux::pipeline::render(&scene, &volume, &Compute::Cpu, &NoProgress).unwrap();
+    let rendered =
+        occlux::pipeline::render(&Settled::named(&scene), &volume, &Compute::Cpu, &NoProgress)
+            .unwrap();
     let names: Vec<&str> = rendered.grids.iter().map(|g| g.name).collect();
     assert_eq!(names, ["ao", "sdf"]);
     let (ao, sdf) = (&rendered.grids[0].volume, &rendered.grids[1].volume);

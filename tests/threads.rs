@@ -5,8 +5,8 @@
 //! the thread count, and sums are taken in a fixed order; this holds it to the bit.
 
 use occlux::gpu::Compute;
-use occlux::progress::NoProgress;
 use occlux::method::{MethodSpec, ParamKind};
+use occlux::progress::NoProgress;
 use occlux::registry::{find, METHODS};
 use occlux::render::reference::{self, Estimator, ReferenceInput, ReferenceParams};
 use occlux::render::{MethodInput, Rendered};

@@ -15,6 +15,7 @@ use occlux::ao::vao::stats::{local_stats, LocalStats};
 use occlux::ao::vao::{self, exact, Estimator, FieldKind, ScalarField, UnitMap, VaoParams};
 use occlux::classify::presets::preset;
 use occlux::gpu::Compute;
+use occlux::pipeline::Settled;
 use occlux::progress::NoProgress;
 use occlux::volume::{phantom, Volume};
 use std::borrow::Cow;
@@ -681,7 +682,7 @@ fn ao_shaded_images_shade_with_the_raw_openness_whatever_the_grids_convention() 
         )
         .unwrap();
         let volume = scene.load_volume().unwrap();
-        pipeline::render(&scene, &volume, &Compute::Cpu, &NoProgress).unwrap()
+        pipeline::render(&Settled::named(&scene), &volume, &Compute::Cpu, &NoProgress).unwrap()
     };
     let (unoccluded, raw) = (render("unoccluded"), render("raw"));
     assert!(

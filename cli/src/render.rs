@@ -70,7 +70,7 @@ pub fn render_scene(
         notice(quiet, line);
     }
     let volume = &loaded.volume;
-    let scene = &*settle(&loaded.scene, volume, &compute, &|line: &str| {
+    let scene = &settle(&loaded.scene, volume, &compute, &|line: &str| {
         say(quiet, line)
     })?;
     let [nx, ny, nz] = volume.dims();

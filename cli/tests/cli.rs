@@ -2,7 +2,7 @@
 //! library's render; `info` describes a real volume; bad input fails cleanly and writes nothing.
 
 use occlux::gpu::Compute;
-use occlux::pipeline;
+use occlux::pipeline::{self, Settled};
 use occlux::progress::NoProgress;
 use occlux::scene::Scene;
 use std::borrow::Cow;
@@ -88,9 +88,14 @@ fn demo_writes_the_render_the_library_computes() {
     let scene = Scene::parse(include_str!("../../examples/demo-lit.toml"), Path::new(".")).unwrap();
     // Settled as the CLI settles it: the camera framed on the visible content.
     let loaded = scene.load().unwrap();
-    let img = pipeline::render(&loaded.scene, &loaded.volume, &Compute::Cpu, &NoProgress)
-        .unwrap()
-        .image;
+    let img = pipeline::render(
+        &Settled::named(&loaded.scene),
+        &loaded.volume,
+        &Compute::Cpu,
+        &NoProgress,
+    )
+    .unwrap()
+    .image;
 
     let beauty = exr_layer(&out.path().join("demo.exr"), "beauty");
     let names: Vec<&str> = beauty.iter().map(|(n, _)| n.as_str()).collect();
@@ -694,7 +699,8 @@ fn ao_shaded_scenes_render_and_export_the_ao_grid() {
     );
     let scene = Scene::from_file(&scene_path).unwrap();
     let volume = scene.load_volume().unwrap();
-    let rendered = pipeline::render(&scene, &volume, &Compute::Cpu, &NoProgress).unwrap();
+    let rendered =
+        pipeline::render(&Settled::named(&scene), &volume, &Compute::Cpu, &NoProgress).unwrap();
     let ao = &rendered
         .grids
         .iter()
@@ -846,7 +852,7 @@ height = 10
     );
     let scene = Scene::from_file(&scene_path).unwrap();
     let volume = scene.load_volume().unwrap();
-    let img = pipeline::render(&scene, &volume, &Compute::Cpu, &NoProgress)
+    let img = pipeline::render(&Settled::named(&scene), &volume, &Compute::Cpu, &NoProgress)
         .unwrap()
         .image;
     let exr = read_exr(&out.join("scene.exr")).unwrap();

@@ -7,8 +7,8 @@
 
 use occlux::error::{Error, Result};
 use occlux::gpu::{Compute, DeviceChoice};
-use occlux::progress::NoProgress;
 use occlux::method::RenderMethod;
+use occlux::progress::NoProgress;
 use occlux::registry::Method;
 use occlux::render::dos::{self, DosInput, DosParams};
 use occlux::render::half_angle::HalfAngleParams;

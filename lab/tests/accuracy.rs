@@ -5,6 +5,7 @@
 use occlux::ao::vao::FieldKind;
 use occlux::classify::presets::preset;
 use occlux::gpu::Compute;
+use occlux::pipeline::Settled;
 use occlux::progress::NoProgress;
 use occlux::render::reference::Estimator;
 use occlux::scene::Scene;
@@ -84,7 +85,9 @@ fn ao_shaded_dvr_with_the_sweep_matches_the_ambient_reference() {
                 [render]\nmethod = \"ao\"\nao_method = \"sweep-physical\"\n";
     let scene = Scene::parse(text, Path::new(".")).unwrap();
     let volume = scene.load_volume().unwrap();
-    let rendered = occlux::pipeline::render(&scene, &volume, &Compute::Cpu, &NoProgress).unwrap();
+    let rendered =
+        occlux::pipeline::render(&Settled::named(&scene), &volume, &Compute::Cpu, &NoProgress)
+            .unwrap();
     assert_eq!(rendered.grids[0].name, "ao");
     let lut = scene.classification.bake(&volume);
     let reference = reference_image(&scene, &volume, &lut, Estimator::Ambient, 512).unwrap();

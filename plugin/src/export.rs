@@ -83,7 +83,7 @@ pub fn export(
     output.validate().map_err(py_err)?;
     let compute = compute(py, device)?;
     let (scene, volume) = scene_volume(py, &scene.inner, volume)?;
-    let scene = &*settled(py, scene, &volume, &compute)?;
+    let scene = &settled(py, scene, &volume, &compute)?;
     let rendered = render_scene(py, scene, &volume, &compute, progress)?;
     py.detach(|| pipeline::export(&rendered, scene, &volume, &out_dir, stem, &output, &vdb))
         .map_err(py_err)

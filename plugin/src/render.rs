@@ -8,7 +8,7 @@ use crate::{py_err, unknown_choice};
 use numpy::{PyArray2, PyArray3};
 use occlux::export::exr::{self, render_layers, Precision};
 use occlux::gpu::{Compute, DeviceChoice};
-use occlux::pipeline::{self, header_metadata};
+use occlux::pipeline::{self, header_metadata, Settled};
 use occlux::progress::{NoProgress, Progress};
 use occlux::render::RenderImage;
 use occlux::render::Rendered;
@@ -167,14 +167,20 @@ pub(crate) fn settled<'a>(
     scene: Cow<'a, Scene>,
     volume: &Volume,
     compute: &Compute,
-) -> PyResult<Cow<'a, Scene>> {
+) -> PyResult<Settled<'a>> {
     if scene.auto.is_none() {
-        return Ok(scene);
+        return Ok(Settled {
+            scene,
+            planned: None,
+        });
     }
     let planned = py
-        .detach(|| pipeline::settle(&scene, volume, compute, &|_: &str| {}).map(Cow::into_owned))
+        .detach(|| pipeline::settle(&scene, volume, compute, &|_: &str| {}))
         .map_err(py_err)?;
-    Ok(Cow::Owned(planned))
+    Ok(Settled {
+        scene: Cow::Owned(planned.scene.into_owned()),
+        planned: planned.planned,
+    })
 }
 
 /// Forwards the core's progress to a Python callable `progress(done, total)`, taking the GIL
@@ -234,7 +240,7 @@ pub(crate) fn with_progress<T: Send>(
 /// Renders the scene's method for `volume` without the GIL, reporting to `progress`.
 pub(crate) fn render_scene(
     py: Python<'_>,
-    scene: &Scene,
+    scene: &Settled,
     volume: &Volume,
     compute: &Compute,
     progress: Option<Py<PyAny>>,
@@ -287,7 +293,7 @@ pub fn write_exr(
     float32: bool,
 ) -> PyResult<()> {
     let image = &result.image;
-    let mut metadata = header_metadata(&scene.inner);
+    let mut metadata = header_metadata(&Settled::named(&scene.inner));
     if let Some(record) = &result.plan {
         pipeline::insert_plan(&mut metadata, record);
     }

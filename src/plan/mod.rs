@@ -25,6 +25,7 @@
 pub mod measure;
 pub mod stats;
 
+pub use crate::budget::{Budget, Scattering, DEFAULT_PILOT};
 use crate::error::{Error, Result};
 use crate::gpu::Compute;
 use crate::lights::{LightKind, Lighting};
@@ -41,8 +42,6 @@ use stats::SceneStats;
 use std::path::Path;
 use std::time::Instant;
 
-/// Default pilot image size (longer side, pixels).
-pub const DEFAULT_PILOT: u32 = 64;
 /// Volume bounces of the multiple-scattering truth (the chart's and the engine references').
 pub const BOUNCES: u32 = 8;
 /// Share of the budget a method's pilot error may use: the rest covers what changes from the
@@ -58,88 +57,6 @@ pub const HALF_FLOAT_BUDGET: f64 = 0.01;
 /// follow; and the most the pilot's truth takes.
 const FIRST_PILOT_SPP: u32 = 64;
 const MOST_PILOT_SPP: u32 = 8192;
-
-/// The light transport the truth models.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
-#[serde(rename_all = "lowercase")]
-pub enum Scattering {
-    /// Light scattered once (Cycles' default: no volume bounces).
-    Single,
-    /// A random walk of 8 bounces.
-    Multiple,
-}
-
-impl Scattering {
-    pub fn name(self) -> &'static str {
-        match self {
-            Scattering::Single => "single",
-            Scattering::Multiple => "multiple",
-        }
-    }
-
-    pub fn from_name(name: &str) -> Option<Self> {
-        match name {
-            "single" => Some(Scattering::Single),
-            "multiple" => Some(Scattering::Multiple),
-            _ => None,
-        }
-    }
-}
-
-impl std::str::FromStr for Scattering {
-    type Err = Error;
-
-    fn from_str(name: &str) -> Result<Self> {
-        Scattering::from_name(name).ok_or_else(|| {
-            Error::param(
-                "scattering",
-                format!("unknown '{name}': one of single, multiple"),
-            )
-        })
-    }
-}
-
-/// What a plan must meet.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
-pub struct Budget {
-    /// The largest relative RMSE over the volume's pixels against the truth.
-    pub error: f64,
-    pub scattering: Scattering,
-    /// The pilot's image size (longer side, pixels).
-    pub pilot: u32,
-}
-
-impl Budget {
-    pub fn new(error: f64, scattering: Scattering) -> Self {
-        Self {
-            error,
-            scattering,
-            pilot: DEFAULT_PILOT,
-        }
-    }
-
-    pub fn validate(&self) -> Result<()> {
-        if !(self.error > 0.0 && self.error <= 10.0) {
-            return Err(Error::param(
-                "error",
-                format!(
-                    "the error budget (relative RMSE) must be in (0, 10], got {}",
-                    self.error
-                ),
-            ));
-        }
-        if !(8..=1024).contains(&self.pilot) {
-            return Err(Error::param(
-                "pilot",
-                format!(
-                    "the pilot's image side must be in [8, 1024], got {}",
-                    self.pilot
-                ),
-            ));
-        }
-        Ok(())
-    }
-}
 
 /// The estimator of the truth of `lighting` under `scattering`.
 pub fn truth_estimator(lighting: &Lighting, scattering: Scattering) -> Estimator {

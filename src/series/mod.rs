@@ -27,7 +27,7 @@ use crate::export::usd::{write_usda, StageDescription};
 use crate::export::vdb::{write_vdb, Compression, VdbOptions};
 use crate::framing::{self, Content};
 use crate::gpu::Compute;
-use crate::pipeline::{self, header_metadata, OutputOptions, EXPORT_GRIDS};
+use crate::pipeline::{self, header_metadata, OutputOptions, Settled, EXPORT_GRIDS};
 use crate::progress::{NoProgress, Progress, Report};
 use crate::render::ao_shaded::AO_GRID;
 use crate::scene::{Centre, Scene, SourceKind};
@@ -577,7 +577,12 @@ pub fn run_frame(
     let mut set = OutputSet::new(out_dir)?;
     // The render is needed for the images, or for the grids the method computes on the way.
     let rendered = if entry.exr.is_some() || !scene.method.grids().is_empty() {
-        Some(pipeline::render(scene, volume, compute, progress)?)
+        Some(pipeline::render(
+            &Settled::named(scene),
+            volume,
+            compute,
+            progress,
+        )?)
     } else {
         None
     };
@@ -587,7 +592,7 @@ pub fn run_frame(
         pipeline::write_image_files(
             image,
             &render_layers(image),
-            &header_metadata(scene),
+            &header_metadata(&Settled::named(scene)),
             &mut set,
             stem,
             &options.output(),
