@@ -18,6 +18,7 @@ pub mod method;
 pub mod metric;
 pub mod names;
 pub mod octahedral;
+pub mod optics;
 pub mod pipeline;
 pub mod plan;
 pub mod progress;

@@ -10,8 +10,8 @@ use occlux::classify::{
     Classification, ControlPoint, Lut, TransferFunction, TransferFunction1D, ValueUnits,
 };
 use occlux::lights::{Light, Lighting};
+use occlux::optics::phase::henyey_greenstein;
 use occlux::progress::NoProgress;
-use occlux::render::reference::phase::henyey_greenstein;
 use occlux::render::reference::{
     render, Estimator, ReferenceImage, ReferenceInput, ReferenceParams,
 };
@@ -460,7 +460,7 @@ fn tracking_cell_by_cell_is_unbiased_where_the_majorants_differ() {
     // zero to the table's largest. Along rays through it, the mean of ratio tracking's
     // estimates and the fraction of delta tracking's collisions must match the transmittance
     // found by fine quadrature, within their noise.
-    use occlux::render::reference::medium::Medium;
+    use occlux::optics::medium::Medium;
     use rand_pcg::Pcg32;
     let volume = occlux::volume::phantom::ct(32).unwrap();
     let mut classification = occlux::classify::presets::preset("ct-bone").unwrap();
@@ -515,7 +515,7 @@ fn tracking_cell_by_cell_is_unbiased_where_the_majorants_differ() {
 
 /// The mean of `n` transmittance estimates along `ray` and its standard error.
 fn transmittance_estimates(
-    medium: &occlux::render::reference::medium::Medium,
+    medium: &occlux::optics::medium::Medium,
     ray: &Ray,
     n: usize,
     rng: &mut rand_pcg::Pcg32,
@@ -529,7 +529,7 @@ fn transmittance_estimates(
 }
 
 /// The optical depth of `medium` across its box along `ray`, by fine midpoint quadrature.
-fn optical_depth(medium: &occlux::render::reference::medium::Medium, ray: &Ray) -> f64 {
+fn optical_depth(medium: &occlux::optics::medium::Medium, ray: &Ray) -> f64 {
     let (t0, t1) = medium.clip(ray).unwrap();
     let steps = 20_000;
     let h = (t1 - t0) / steps as f32;
@@ -545,7 +545,7 @@ fn deep_shadow_estimates_carry_their_own_noise() {
     // estimates must state its noise honestly: its mean lies within its own standard error
     // of the exact value as often as a normal variable would. Ratio tracking with Russian
     // roulette at transmittance 0.05 read 0 +- 0 in nearly every batch here.
-    use occlux::render::reference::medium::Medium;
+    use occlux::optics::medium::Medium;
     use rand_pcg::Pcg32;
     let volume = occlux::volume::phantom::sphere(32, 0.8).unwrap();
     let mut classification = occlux::classify::presets::preset("simulation").unwrap();

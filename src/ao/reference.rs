@@ -18,9 +18,9 @@
 use crate::camera::Ray;
 use crate::classify::Lut;
 use crate::error::{Error, Result};
+use crate::optics::medium::Medium;
+use crate::optics::phase::{sample_cone, sample_sphere};
 use crate::progress::Progress;
-use crate::render::reference::medium::Medium;
-use crate::render::reference::phase::{sample_cone, sample_sphere};
 use crate::volume::Volume;
 use glam::Vec3;
 use rand::Rng;

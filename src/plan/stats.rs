@@ -6,7 +6,7 @@
 use crate::camera::{Camera, Ray};
 use crate::classify::Lut;
 use crate::lights::{Light, Lighting};
-use crate::render::reference::medium::Medium;
+use crate::optics::medium::Medium;
 use crate::volume::Volume;
 use glam::Vec3;
 use serde::Serialize;

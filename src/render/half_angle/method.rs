@@ -4,7 +4,7 @@ use super::{HalfAngleInput, HalfAngleParams};
 use crate::error::Result;
 use crate::lights::LightKind;
 use crate::method::{MethodSpec, Model, ParamKind, ParamSpec, Range, RenderMethod};
-use crate::render::reference::phase::G;
+use crate::optics::phase::G;
 use crate::render::reference::Estimator;
 use crate::render::{MethodInput, Rendered};
 

@@ -78,7 +78,7 @@ impl HalfAngleParams {
         if let Some(size) = self.light_buffer {
             method::LIGHT_BUFFER.check(size as f64)?;
         }
-        crate::render::reference::phase::G.check(self.g as f64)
+        crate::optics::phase::G.check(self.g as f64)
     }
 }
 

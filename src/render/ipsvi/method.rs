@@ -4,8 +4,8 @@ use super::{IpsviInput, IpsviParams, Scattering, MAX_CACHE_SIZE};
 use crate::error::Result;
 use crate::lights::LightKind;
 use crate::method::{Choice, MethodSpec, Model, ParamKind, ParamSpec, Range, RenderMethod};
+use crate::optics::phase::G;
 use crate::render::raycast::{ERT_THRESHOLD, STEP};
-use crate::render::reference::phase::G;
 use crate::render::reference::Estimator;
 use crate::render::{MethodInput, Rendered};
 

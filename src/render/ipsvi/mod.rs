@@ -151,7 +151,7 @@ impl IpsviParams {
             method::CACHE_SIZE.check(size as f64)?;
         }
         method::LINE_WIDTH.check(self.line_width as f64)?;
-        crate::render::reference::phase::G.check(self.g as f64)?;
+        crate::optics::phase::G.check(self.g as f64)?;
         crate::render::raycast::STEP.check_optional(self.step)?;
         crate::render::raycast::ERT_THRESHOLD.check(self.ert_threshold as f64)
     }

@@ -23,20 +23,17 @@
 //! paths that interact. The standard error is that of each pixel's mean over its samples.
 //! Each pixel draws from its own PCG stream, so images do not depend on thread scheduling.
 
-pub mod majorants;
-pub mod medium;
-pub mod phase;
-
 use crate::camera::{Camera, Ray};
 use crate::classify::Lut;
 use crate::error::{Error, Result};
 use crate::export::exr::ExrLayer;
 use crate::lights::{incident, Light, Lighting};
+use crate::optics::medium::Medium;
+use crate::optics::phase;
 use crate::progress::Progress;
 use crate::render::RenderImage;
 use crate::volume::Volume;
 use glam::Vec3;
-use medium::Medium;
 use rand_pcg::Pcg32;
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicU64, Ordering};
