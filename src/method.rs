@@ -19,7 +19,7 @@ pub struct MethodSpec {
     pub summary: &'static str,
     /// Where its code lives, under src/.
     pub module: &'static str,
-    /// Its WGSL kernels in shaders/.
+    /// Its WGSL kernels (beside its GPU code, or the GPU code it runs on).
     pub shaders: &'static [&'static str],
     /// The lights it renders; a scene with others is refused.
     pub lights: &'static [LightKind],

@@ -5,8 +5,8 @@
 //! none of them repeats what a method is.
 //!
 //! A method is one folder under `src/render/` (its parameters, CPU twin, GPU twin and a
-//! [`RenderMethod`] impl of the contract in [`crate::method`]) with its kernels in
-//! `shaders/NAME*.wgsl`, and one line in the `methods!` list at the bottom of this file.
+//! [`RenderMethod`] impl of the contract in [`crate::method`]) with its kernels in `NAME*.wgsl`
+//! beside its GPU code, and one line in the `methods!` list at the bottom of this file.
 
 use crate::error::{Error, Result};
 use crate::lights::LightKind;

@@ -1,4 +1,4 @@
-//! The volume texture and shaders/common.wgsl against the CPU's `Volume::sample_index` and
+//! The volume texture and shaders/shared/common.wgsl against the CPU's `Volume::sample_index` and
 //! `Volume::gradient`. These tests need a Vulkan (or Metal/DX12) adapter and fail without one:
 //! on a machine without a GPU, `apt-get install mesa-vulkan-drivers` provides lavapipe.
 
@@ -16,7 +16,7 @@ fn ctx() -> Arc<GpuContext> {
 }
 
 /// The kernel that samples the volume texture at given index coordinates (a test's, not in the
-/// production shaders; it includes their shaders/common.wgsl).
+/// production shaders; it includes their shaders/shared/common.wgsl).
 const SAMPLE_KERNEL: &str = include_str!("shaders/sample_volume.wgsl");
 
 /// The kernel's `Params` uniform.

@@ -10,8 +10,8 @@ use occlux::progress::NoProgress;
 use occlux::registry::{self, Method, METHODS};
 use occlux::scene::Scene;
 use serde_json::{json, Map, Value};
-use std::collections::BTreeSet;
-use std::path::Path;
+use std::collections::{BTreeMap, BTreeSet};
+use std::path::{Path, PathBuf};
 
 fn table(method: &str, extra: Value) -> Map<String, Value> {
     let mut table = Map::new();
@@ -159,51 +159,61 @@ fn type_errors_and_foreign_keys_name_the_key() {
 
 #[test]
 fn each_method_names_shaders_that_exist_and_every_shader_belongs_to_one() {
-    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("shaders");
-    let on_disk: BTreeSet<String> = std::fs::read_dir(&dir)
-        .unwrap()
-        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
-        .filter(|n| n.ends_with(".wgsl"))
-        .collect();
-    let includes = |name: &str| -> Vec<String> {
-        std::fs::read_to_string(dir.join(name))
-            .unwrap()
-            .lines()
-            .filter_map(|l| l.trim().strip_prefix("//#include"))
-            .map(|rest| rest.trim().trim_matches('"').to_owned())
-            .collect()
-    };
-    // What the registered methods use: their kernels and, transitively, their includes.
+    // A method's kernels lie beside the CPU and GPU twins that run them (src/render/dos/dos.wgsl,
+    // src/ao/vao/vao_stats.wgsl); the helpers any kernel may include, in shaders/shared/.
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let shared = root.join("shaders/shared");
+    let mut on_disk: BTreeMap<String, PathBuf> = BTreeMap::new();
+    let mut folders = vec![root.join("src"), shared.clone()];
+    while let Some(folder) = folders.pop() {
+        for entry in std::fs::read_dir(&folder).unwrap() {
+            let path = entry.unwrap().path();
+            if path.is_dir() {
+                folders.push(path);
+            } else if path.extension().is_some_and(|e| e == "wgsl") {
+                let name = path.file_name().unwrap().to_string_lossy().into_owned();
+                assert!(on_disk.insert(name.clone(), path).is_none(), "two {name}");
+            }
+        }
+    }
+    // What the registered methods use: their kernels and, transitively, their includes, each
+    // found beside its includer or among the shared helpers.
     let mut used: BTreeSet<String> = BTreeSet::new();
     let mut todo: Vec<String> = METHODS
         .iter()
         .flat_map(|m| m.shaders.iter().map(|s| s.to_string()))
         .collect();
     while let Some(name) = todo.pop() {
-        assert!(on_disk.contains(&name), "{name} is not in shaders/");
-        if used.insert(name.clone()) {
-            todo.extend(includes(&name));
-        }
-    }
-    // Same names everywhere: a kernel (a file with an entry point) is named after the folder
-    // that holds its CPU and GPU twins (dos.wgsl: src/render/dos/; vao_stats.wgsl: src/ao/vao/).
-    let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
-    for name in &used {
-        let text = std::fs::read_to_string(dir.join(name)).unwrap();
-        if !text.contains("@compute") {
+        let path = on_disk
+            .get(&name)
+            .unwrap_or_else(|| panic!("{name} is nowhere"));
+        if !used.insert(name.clone()) {
             continue;
         }
-        let stem = name.trim_end_matches(".wgsl").split('_').next().unwrap();
-        let folder = ["render", "ao"]
-            .iter()
-            .map(|area| src.join(area).join(stem))
-            .find(|f| f.join("cpu.rs").is_file() && f.join("gpu.rs").is_file());
-        assert!(
-            folder.is_some(),
-            "{name}: no src/render/{stem}/ or src/ao/{stem}/ twins"
-        );
+        let text = std::fs::read_to_string(path).unwrap();
+        for include in text
+            .lines()
+            .filter_map(|l| l.trim().strip_prefix("//#include"))
+            .map(|rest| rest.trim().trim_matches('"').to_owned())
+        {
+            let found = &on_disk[&include];
+            assert!(
+                found.parent() == path.parent() || found.parent() == Some(shared.as_path()),
+                "{name} includes {include}, neither beside it nor shared"
+            );
+            todo.push(include);
+        }
+        // A kernel (a file with an entry point) lies beside the CPU and GPU twins that run it.
+        let folder = path.parent().unwrap();
+        if text.contains("@compute") {
+            assert!(
+                folder.join("cpu.rs").is_file() && folder.join("gpu.rs").is_file(),
+                "{name}: no cpu.rs and gpu.rs beside it in {}",
+                folder.display()
+            );
+        }
     }
-    let strays: Vec<&String> = on_disk.difference(&used).collect();
+    let strays: Vec<&String> = on_disk.keys().filter(|n| !used.contains(*n)).collect();
     assert!(strays.is_empty(), "shaders no method uses: {strays:?}");
 }
 

@@ -4,12 +4,13 @@
 
 use wgpu::naga;
 
-use super::shader;
+use super::shader::{self, Wgsl};
 
-/// Shader `name` of shaders/ with its includes, parsed and validated by naga as wgpu does
-/// (validation enforces WGSL's uniform layout rules, such as 16-byte array strides).
-fn module(name: &str) -> naga::Module {
-    let text = shader::source(name).unwrap();
+/// `shader` with its includes, parsed and validated by naga as wgpu does (validation enforces
+/// WGSL's uniform layout rules, such as 16-byte array strides).
+fn module(shader: &Wgsl) -> naga::Module {
+    let name = shader.name;
+    let text = shader::source(shader).unwrap();
     let module = naga::front::wgsl::parse_str(&text)
         .unwrap_or_else(|e| panic!("{name}: {}", e.emit_to_string(&text)));
     naga::valid::Validator::new(
@@ -25,13 +26,13 @@ fn module(name: &str) -> naga::Module {
 /// struct `wgsl_struct` of `shader`: same size, every WGSL member but padding (`_` names) listed,
 /// each at its WGSL offset.
 pub(crate) fn check_mirror(
-    shader: &str,
+    shader: &Wgsl,
     wgsl_struct: &str,
     size: usize,
     offsets: &[(&str, usize)],
 ) {
     let module = module(shader);
-    let what = format!("{wgsl_struct} of {shader}");
+    let what = format!("{wgsl_struct} of {}", shader.name);
     let (members, span) = module
         .types
         .iter()
@@ -56,28 +57,31 @@ pub(crate) fn check_mirror(
 }
 
 /// The value of `const name: u32` in `shader`.
-pub(crate) fn u32_constant(shader: &str, name: &str) -> u32 {
+pub(crate) fn u32_constant(shader: &Wgsl, name: &str) -> u32 {
     let module = module(shader);
     let init = module
         .constants
         .iter()
         .find(|(_, c)| c.name.as_deref() == Some(name))
-        .unwrap_or_else(|| panic!("no const {name} in {shader}"))
+        .unwrap_or_else(|| panic!("no const {name} in {}", shader.name))
         .1
         .init;
     match module.global_expressions[init] {
         naga::Expression::Literal(naga::Literal::U32(value)) => value,
-        ref other => panic!("const {name} of {shader} is {other:?}, not a u32 literal"),
+        ref other => panic!(
+            "const {name} of {} is {other:?}, not a u32 literal",
+            shader.name
+        ),
     }
 }
 
-/// `assert_mirrors!(RustType, "shader.wgsl", "WgslStruct", [field, ...])`: the Rust type has
+/// `assert_mirrors!(RustType, SHADER, "WgslStruct", [field, ...])`: the Rust type has
 /// the WGSL struct's size and each listed field sits at the offset of the WGSL member of the
 /// same name; every WGSL member but padding must be listed.
 macro_rules! assert_mirrors {
     ($rust:ty, $shader:expr, $wgsl:expr, [$($field:ident),* $(,)?]) => {
         $crate::gpu::layout::check_mirror(
-            $shader,
+            &$shader,
             $wgsl,
             ::std::mem::size_of::<$rust>(),
             &[$((stringify!($field), ::std::mem::offset_of!($rust, $field))),*],

@@ -3,11 +3,13 @@
 //! - [`context`]: opening a device ([`GpuContext`]), `--device auto|gpu|cpu` ([`DeviceChoice`],
 //!   [`Compute`]), one shared context per process ([`shared_context`]).
 //! - [`texture`]: a `Volume` as an r32float 3D texture ([`VolumeTexture`]).
-//! - [`shader`]: WGSL from shaders/ (or a caller's text including them) with `//#include`,
-//!   cached compute pipelines, bind groups, dispatch.
+//! - [`shader`]: WGSL files ([`shader::Wgsl`], each embedded by the method that owns it; the
+//!   shared helpers of shaders/shared/) with `//#include`, cached compute pipelines, bind
+//!   groups, dispatch.
 //! - [`buffer`]: storage/uniform buffers from plain data, readback.
-//! - `view`, `lut_shape`: the uniform parts the renderers share (shaders/view.wgsl's `View`,
-//!   shaders/classify.wgsl's `LutShape`); tests check their layout against naga's (`layout`).
+//! - `view`, `lut_shape`: the uniform parts the renderers share (shaders/shared/view.wgsl's
+//!   `View`, shaders/shared/classify.wgsl's `LutShape`); tests check their layout against naga's
+//!   (`layout`).
 
 pub mod buffer;
 pub mod context;

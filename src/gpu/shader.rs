@@ -1,7 +1,9 @@
-//! WGSL sources embedded at build time, `//#include "name.wgsl"` expansion, and cached compute
-//! pipelines (creating one JIT-compiles the shader, 60-800 ms on lavapipe, so each is built once
-//! per context), from a shader of shaders/ or from a caller's text (a test's kernel) that
-//! includes them.
+//! WGSL sources, `//#include "name.wgsl"` expansion, and cached compute pipelines (creating one
+//! JIT-compiles the shader, 60-800 ms on lavapipe, so each is built once per context). Each method
+//! embeds its own kernels beside its GPU code as a [`Wgsl`] (`include_str!`); the helpers any
+//! kernel may include are the shared ones of shaders/shared/ ([`SHARED`]), so a new method adds
+//! files of its own and touches nothing here. A caller's text (a test's kernel) may include the
+//! shared helpers too.
 
 use std::collections::{HashMap, HashSet};
 use std::sync::Mutex;
@@ -10,66 +12,91 @@ use crate::error::{Error, Result};
 
 use super::context::GpuContext;
 
-/// Every shader in shaders/, by file name.
-const SOURCES: &[(&str, &str)] = &[
-    ("common.wgsl", include_str!("../../shaders/common.wgsl")),
-    ("classify.wgsl", include_str!("../../shaders/classify.wgsl")),
-    ("dos.wgsl", include_str!("../../shaders/dos.wgsl")),
-    ("ipsvi.wgsl", include_str!("../../shaders/ipsvi.wgsl")),
-    (
-        "ipsvi_cache.wgsl",
-        include_str!("../../shaders/ipsvi_cache.wgsl"),
-    ),
-    (
-        "ipsvi_merge.wgsl",
-        include_str!("../../shaders/ipsvi_merge.wgsl"),
-    ),
-    (
-        "occupancy.wgsl",
-        include_str!("../../shaders/occupancy.wgsl"),
-    ),
-    ("plane.wgsl", include_str!("../../shaders/plane.wgsl")),
-    ("raycast.wgsl", include_str!("../../shaders/raycast.wgsl")),
-    (
-        "sweep_sdf.wgsl",
-        include_str!("../../shaders/sweep_sdf.wgsl"),
-    ),
-    ("sweep.wgsl", include_str!("../../shaders/sweep.wgsl")),
-    (
-        "vao_stats.wgsl",
-        include_str!("../../shaders/vao_stats.wgsl"),
-    ),
-    (
-        "vao_estimate.wgsl",
-        include_str!("../../shaders/vao_estimate.wgsl"),
-    ),
-    ("view.wgsl", include_str!("../../shaders/view.wgsl")),
-];
+/// A WGSL file, embedded by the module that owns it: its name (in errors, in the pipeline cache
+/// and in `//#include` lines), its text, and the owner's other files it includes.
+#[derive(Debug)]
+pub struct Wgsl {
+    pub name: &'static str,
+    pub text: &'static str,
+    /// The owner's files this one includes (and, through them, theirs); the shared helpers need
+    /// no listing.
+    pub includes: &'static [&'static Wgsl],
+}
+
+/// Small helpers (the volume's sampling, ray-box clipping).
+pub const COMMON: Wgsl = Wgsl {
+    name: "common.wgsl",
+    text: include_str!("../../shaders/shared/common.wgsl"),
+    includes: &[],
+};
+/// The classification table's lookup (`LutShape`) and the emission integral.
+pub const CLASSIFY: Wgsl = Wgsl {
+    name: "classify.wgsl",
+    text: include_str!("../../shaders/shared/classify.wgsl"),
+    includes: &[],
+};
+/// Empty-space skipping over the occupancy grid.
+pub const OCCUPANCY: Wgsl = Wgsl {
+    name: "occupancy.wgsl",
+    text: include_str!("../../shaders/shared/occupancy.wgsl"),
+    includes: &[],
+};
+/// The camera (`View`) and the rays it casts.
+pub const VIEW: Wgsl = Wgsl {
+    name: "view.wgsl",
+    text: include_str!("../../shaders/shared/view.wgsl"),
+    includes: &[],
+};
+/// The helpers any kernel may include.
+pub const SHARED: &[&Wgsl] = &[&COMMON, &CLASSIFY, &OCCUPANCY, &VIEW];
 
 const INCLUDE: &str = "//#include";
 
-/// The text of shader `name` with its includes expanded. Each file is included at most once
-/// (later includes of it, and include cycles, expand to nothing).
-pub fn source(name: &str) -> Result<String> {
+/// The text of `shader` with its includes expanded. Each file is included at most once (later
+/// includes of it, and include cycles, expand to nothing).
+pub fn source(shader: &Wgsl) -> Result<String> {
     let mut out = String::new();
-    expand(name, &raw_source, &mut HashSet::new(), &mut out)?;
+    let lookup = |name: &str| find(shader, name);
+    expand(shader.name, &lookup, &mut HashSet::new(), &mut out)?;
     Ok(out)
 }
 
-/// `text` (named `label` in errors) with its includes of shaders/ expanded, as [`source`].
+/// `text` (named `label` in errors) with its includes of the shared helpers expanded, as
+/// [`source`].
 fn expand_text(label: &str, text: &str) -> Result<String> {
     let mut out = String::new();
-    expand_lines(label, text, &raw_source, &mut HashSet::new(), &mut out)?;
+    let lookup = |name: &str| find_shared(name, &[]);
+    expand_lines(label, text, &lookup, &mut HashSet::new(), &mut out)?;
     Ok(out)
 }
 
-fn raw_source(name: &str) -> Result<&'static str> {
-    SOURCES
+/// The text of the file `name` as `shader` sees it: itself, one of its includes (at any depth)
+/// or a shared helper.
+fn find(shader: &Wgsl, name: &str) -> Result<&'static str> {
+    let mut owned = vec![];
+    let mut todo = vec![shader];
+    while let Some(file) = todo.pop() {
+        if file.name == name {
+            return Ok(file.text);
+        }
+        owned.push(file.name);
+        todo.extend(file.includes.iter().copied());
+    }
+    find_shared(name, &owned)
+}
+
+/// A shared helper's text; the error lists `owned` (the includer's own files) and the helpers.
+fn find_shared(name: &str, owned: &[&str]) -> Result<&'static str> {
+    SHARED
         .iter()
-        .find(|(n, _)| *n == name)
-        .map(|(_, text)| *text)
+        .find(|file| file.name == name)
+        .map(|file| file.text)
         .ok_or_else(|| {
-            let known: Vec<&str> = SOURCES.iter().map(|(n, _)| *n).collect();
+            let known: Vec<&str> = owned
+                .iter()
+                .copied()
+                .chain(SHARED.iter().map(|file| file.name))
+                .collect();
             Error::Gpu(format!(
                 "no shader named \"{name}\" (known: {})",
                 known.join(", ")
@@ -131,7 +158,7 @@ fn parse_include(rest: &str) -> Option<&str> {
 /// What a cached pipeline was compiled from.
 #[derive(Debug, Clone, PartialEq, Eq, Hash)]
 enum Shader {
-    /// A shader of shaders/, by name.
+    /// A [`Wgsl`] file, by name.
     File(String),
     /// A caller's text, whole (two texts under one label must not share a pipeline).
     Text(String),
@@ -141,25 +168,25 @@ enum Shader {
 #[derive(Debug, Default)]
 pub(super) struct PipelineCache(Mutex<HashMap<(Shader, String), wgpu::ComputePipeline>>);
 
-/// The compute pipeline for `entry_point` of shader `name`, built on first use with the bind
+/// The compute pipeline for `entry_point` of `shader`, built on first use with the bind
 /// group layouts that wgpu derives from the shader (`layout: None`), then cached in `ctx`.
 /// A shader that does not compile is an `Error::Gpu` with naga's message.
 pub fn compute_pipeline(
     ctx: &GpuContext,
-    name: &str,
+    shader: &Wgsl,
     entry_point: &str,
 ) -> Result<wgpu::ComputePipeline> {
     cached_pipeline(
         ctx,
-        Shader::File(name.to_owned()),
-        name,
+        Shader::File(shader.name.to_owned()),
+        shader.name,
         entry_point,
-        || source(name),
+        || source(shader),
     )
 }
 
-/// As [`compute_pipeline`] for a shader that is not in shaders/ (a test's kernel): `text`,
-/// whose `//#include` lines name shaders of shaders/; `label` names it in errors.
+/// As [`compute_pipeline`] for a caller's text (a test's kernel), whose `//#include` lines name
+/// shared helpers ([`SHARED`]); `label` names it in errors.
 pub fn compute_pipeline_from_text(
     ctx: &GpuContext,
     label: &str,
@@ -297,15 +324,30 @@ mod tests {
 
     #[test]
     fn includes_expand_once_in_place() {
-        let text = source("raycast.wgsl").unwrap();
+        const KERNEL: Wgsl = Wgsl {
+            name: "kernel.wgsl",
+            text:
+                "//#include \"view.wgsl\"\n//#include \"local.wgsl\"\n//#include \"common.wgsl\"\n\
+                   fn main() {}\n",
+            includes: &[&LOCAL],
+        };
+        const LOCAL: Wgsl = Wgsl {
+            name: "local.wgsl",
+            text: "//#include \"common.wgsl\"\nfn local() {}\n",
+            includes: &[],
+        };
+        let text = source(&KERNEL).unwrap();
         assert!(
             !text.lines().any(|l| l.trim().starts_with(INCLUDE)),
             "{text}"
         );
         assert_eq!(text.matches("fn sample_volume(").count(), 1);
         assert_eq!(text.matches("struct View {").count(), 1);
+        assert_eq!(text.matches("fn local(").count(), 1);
         // The include stands where its directive stood: before the kernel that uses it.
-        assert!(text.find("fn sample_volume(").unwrap() < text.find("fn main(").unwrap());
+        assert!(text.find("struct View {").unwrap() < text.find("fn local(").unwrap());
+        assert!(text.find("fn sample_volume(").unwrap() < text.find("fn local(").unwrap());
+        assert!(text.find("fn local(").unwrap() < text.find("fn main(").unwrap());
     }
 
     #[test]
@@ -346,8 +388,14 @@ mod tests {
 
     #[test]
     fn unknown_and_malformed_includes_are_errors() {
-        let err = source("nope.wgsl").unwrap_err().to_string();
+        const LONE: Wgsl = Wgsl {
+            name: "lone.wgsl",
+            text: "//#include \"nope.wgsl\"\n",
+            includes: &[],
+        };
+        let err = source(&LONE).unwrap_err().to_string();
         assert!(err.contains("no shader named \"nope.wgsl\"") && err.contains("common.wgsl"));
+        assert!(err.starts_with("GPU: lone.wgsl:1: "), "{err}");
         assert_eq!(parse_include(" \"a.wgsl\" "), Some("a.wgsl"));
         assert_eq!(parse_include(" a.wgsl"), None);
         assert_eq!(parse_include(" \"\""), None);

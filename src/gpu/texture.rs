@@ -1,6 +1,6 @@
 //! A `Volume` as an r32float 3D texture: texel (i, j, k) holds voxel (i, j, k)'s value exactly.
 //!
-//! Kernels interpolate it themselves (`sample_volume` in shaders/common.wgsl loads the eight
+//! Kernels interpolate it themselves (`sample_volume` in shaders/shared/common.wgsl loads the eight
 //! texels and reproduces `Volume::sample_index` in f32), so no sampler is bound: hardware
 //! filters weigh texels in low precision, and r32float needs FLOAT32_FILTERABLE to be filtered
 //! at all. A texture, not a storage buffer, because volumes outgrow one storage binding

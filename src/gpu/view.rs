@@ -1,4 +1,4 @@
-//! The view the renderers share (shaders/view.wgsl's `View`): camera, image and the volume's
+//! The view the renderers share (shaders/shared/view.wgsl's `View`): camera, image and the volume's
 //! placement, laid out as WGSL lays out a uniform (vec3 at 16-byte alignment; the padding
 //! fields fill what WGSL leaves implicit).
 
@@ -8,7 +8,7 @@ use glam::{UVec2, UVec3, Vec2, Vec3};
 use crate::camera::Camera;
 use crate::volume::Volume;
 
-/// shaders/view.wgsl's `View`, field for field.
+/// shaders/shared/view.wgsl's `View`, field for field.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Pod, Zeroable)]
 pub struct ViewUniform {
@@ -68,7 +68,7 @@ mod tests {
     fn view_matches_the_shader() {
         assert_mirrors!(
             ViewUniform,
-            "view.wgsl",
+            crate::gpu::shader::VIEW,
             "View",
             [
                 position,

@@ -1,5 +1,5 @@
 //! The steps of a view ray through the volume's box, shared by the ray casters (unshaded,
-//! gradient and AO-shaded DVR, IPSVI) on the CPU; `shaders/common.wgsl` mirrors it for their
+//! gradient and AO-shaded DVR, IPSVI) on the CPU; `shaders/shared/common.wgsl` mirrors it for their
 //! GPU twins (`step_offset`, `view_steps`, `step_segment`).
 
 use super::occupancy::March;
@@ -23,7 +23,7 @@ pub fn step_offset(x: u32, y: u32) -> f32 {
     (pcg(x.wrapping_add(pcg(y))) >> 8) as f32 * (1.0 / 16_777_216.0)
 }
 
-/// PCG's state step and output permutation of one u32 (`pcg_hash` in shaders/common.wgsl).
+/// PCG's state step and output permutation of one u32 (`pcg_hash` in shaders/shared/common.wgsl).
 #[inline]
 fn pcg(v: u32) -> u32 {
     let state = v.wrapping_mul(747_796_405).wrapping_add(2_891_336_453);

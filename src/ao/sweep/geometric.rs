@@ -27,11 +27,11 @@
 //! 5. AO^(1 / gamma) as a post-process (gamma 2 by default, the paper's choice to brighten the
 //!    sweep's darkening).
 //!
-//! Twins: the signed distance on the CPU (rows, its eight orders shared between two teams) or
-//! the GPU (shaders/sweep_sdf.wgsl, plane by plane); the surface terms on the CPU; the octants and
-//! the shading on the CPU (two parallel groups of four octants) or the GPU (shaders/sweep.wgsl,
-//! the physical mode's plane kernel with the paper's terms, then `sweep_shade`); they agree
-//! within the tolerances of tests/sweep_twins.rs.
+//! Twins: the signed distance on the CPU (rows, its eight orders shared between two teams) or the
+//! GPU (src/ao/sweep/sweep_sdf.wgsl, plane by plane); the surface terms on the CPU; the octants and
+//! the shading on the CPU (two parallel groups of four octants) or the GPU
+//! (src/ao/sweep/sweep.wgsl, the physical mode's plane kernel with the paper's terms, then
+//! `sweep_shade`); they agree within the tolerances of tests/sweep_twins.rs.
 //!
 //! The three-neighbour average follows the octant's diagonal and blurs directions (the paper's
 //! diagonal streaks); the physical mode ([`super::cpu`]) uses seven neighbours and real
@@ -365,7 +365,7 @@ pub struct GeometryTable {
     values: Vec<[f32; 8]>,
 }
 
-/// A voxel's surface terms (three words, as shaders/sweep.wgsl reads them): where its normal
+/// A voxel's surface terms (three words, as src/ao/sweep/sweep.wgsl reads them): where its normal
 /// falls in the table (its cell's first texel and
 /// the bilinear fractions in 1/65535; [`Cell::NONE`] for no normal, each octant then taking
 /// 1/8), and the padded-grid offset of the neighbour the octants are read at.

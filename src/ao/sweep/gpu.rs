@@ -1,4 +1,4 @@
-//! GPU twin of the sweep (shaders/sweep.wgsl): the half-step transmittances once per distinct
+//! GPU twin of the sweep (src/ao/sweep/sweep.wgsl): the half-step transmittances once per distinct
 //! step length, then per group of octants a fill, one dispatch per anti-diagonal plane, in
 //! order, and an average into the visibility.
 //!
@@ -20,13 +20,27 @@ use super::geometric::{GeometricParams, Surface};
 use super::padded::Padded;
 use super::{Stencil, STEPS};
 use crate::error::{Error, Result};
-use crate::gpu::{buffer, shader, GpuContext};
+use crate::gpu::{
+    buffer,
+    shader::{self, Wgsl},
+    GpuContext,
+};
 use crate::progress::Progress;
 use crate::volume::Volume;
 use bytemuck::{Pod, Zeroable};
 use glam::{UVec3, Vec3, Vec4};
 
-const SHADER: &str = "sweep.wgsl";
+/// The anti-diagonal plane of a sweep, shared with the signed distance's kernel.
+pub(crate) const PLANE: Wgsl = Wgsl {
+    name: "plane.wgsl",
+    text: include_str!("plane.wgsl"),
+    includes: &[],
+};
+const SHADER: Wgsl = Wgsl {
+    name: "sweep.wgsl",
+    text: include_str!("sweep.wgsl"),
+    includes: &[&PLANE],
+};
 /// Invocations per workgroup of the 1D kernels (`@workgroup_size(64, 1, 1)`).
 const WORKGROUP_1D: u32 = 64;
 /// Side of a plane kernel's workgroup (`@workgroup_size(8, 8, 1)`).
@@ -208,8 +222,8 @@ impl<'a> Octants<'a> {
         uniform: wgpu::Buffer,
         halves: [&wgpu::Buffer; 7],
     ) -> Result<Self> {
-        let fill = shader::compute_pipeline(ctx, SHADER, "sweep_fill")?;
-        let plane = shader::compute_pipeline(ctx, SHADER, "sweep_plane")?;
+        let fill = shader::compute_pipeline(ctx, &SHADER, "sweep_fill")?;
+        let plane = shader::compute_pipeline(ctx, &SHADER, "sweep_plane")?;
         let grids =
             buffer::output_buffer::<f32>(ctx, "sweep octants", plan.group * plan.padded_voxels)?;
         let mut plane_resources = vec![
@@ -338,8 +352,8 @@ pub fn visibility(
     if progress.cancelled() {
         return Err(Error::Cancelled);
     }
-    let half_steps = shader::compute_pipeline(ctx, SHADER, "sweep_half_steps")?;
-    let average = shader::compute_pipeline(ctx, SHADER, "sweep_average")?;
+    let half_steps = shader::compute_pipeline(ctx, &SHADER, "sweep_half_steps")?;
+    let average = shader::compute_pipeline(ctx, &SHADER, "sweep_average")?;
     let voxels = extinction.values().len();
     let padded = plan.padded_voxels;
     let mut params = base_params(dims, &plan, stencil.weights);
@@ -416,7 +430,7 @@ pub fn geometric_octants(
     let cell_words = buffer::storage_buffer(ctx, "sweep surface terms", cells)?;
     let geometry = buffer::storage_buffer(ctx, "sweep geometry table", table.values())?;
     let sum = buffer::output_buffer::<f32>(ctx, "sweep ao", voxels)?;
-    let shade = shader::compute_pipeline(ctx, SHADER, "sweep_shade")?;
+    let shade = shader::compute_pipeline(ctx, &SHADER, "sweep_shade")?;
     let mut octants = Octants::new(ctx, plan, uniforms, uniform, [&tau; 7])?;
     let shade_bind = shader::bind_group_at(
         ctx,

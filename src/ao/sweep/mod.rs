@@ -33,7 +33,7 @@
 //! (reversed along each axis where s is positive) computes it exactly: O(voxels) per octant, at
 //! any range.
 //!
-//! Twins: [`cpu`] sweeps rows in that order; [`gpu`] (shaders/sweep.wgsl) sweeps the
+//! Twins: [`cpu`] sweeps rows in that order; [`gpu`] (src/ao/sweep/sweep.wgsl) sweeps the
 //! anti-diagonal planes of all eight octants at once (in groups when one storage binding
 //! cannot hold all eight), one dispatch per plane (about nx + ny + nz per group), since a voxel
 //! reads only neighbours on the one to three planes before its own.

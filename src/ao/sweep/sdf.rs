@@ -37,7 +37,8 @@
 //! teams on copies, merged by the minimum (Zhao 2007). `occlux bench-sweep` times it: about
 //! 2.4 s for three rounds of 250^3 on 2 cores (from 8 s single-threaded before).
 //!
-//! GPU twin: [`super::sdf_gpu`] (shaders/sweep_sdf.wgsl) sweeps the same orders plane by plane.
+//! GPU twin: [`super::sdf_gpu`] (src/ao/sweep/sweep_sdf.wgsl) sweeps the same orders plane by
+//! plane.
 //!
 //! Bad input: a volume that never crosses the iso-value (including a constant one) has no
 //! surface and so no distance: that is an error, not a grid of infinities. The output never

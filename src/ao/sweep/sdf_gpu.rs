@@ -1,6 +1,6 @@
-//! GPU twin of the fast sweeping signed distance (shaders/sweep_sdf.wgsl): the interface voxels are
-//! set on the CPU ([`super::sdf::start`]), then each round sweeps the eight orders plane by
-//! plane (one dispatch per anti-diagonal plane, the voxels of a plane in parallel) and reads
+//! GPU twin of the fast sweeping signed distance (src/ao/sweep/sweep_sdf.wgsl): the interface
+//! voxels are set on the CPU ([`super::sdf::start`]), then each round sweeps the eight orders plane
+//! by plane (one dispatch per anti-diagonal plane, the voxels of a plane in parallel) and reads
 //! back the round's largest decrease; the signs and the unpadding are the CPU's
 //! ([`super::sdf::finish`]).
 //!
@@ -12,13 +12,21 @@
 use super::gpu::Plan;
 use super::sdf::{finish, start, Rounds, SdfParams, SdfResult};
 use crate::error::{Error, Result};
-use crate::gpu::{buffer, shader, GpuContext};
+use crate::gpu::{
+    buffer,
+    shader::{self, Wgsl},
+    GpuContext,
+};
 use crate::progress::Progress;
 use crate::volume::Volume;
 use bytemuck::{Pod, Zeroable};
 use glam::{UVec3, Vec3};
 
-const SHADER: &str = "sweep_sdf.wgsl";
+const SHADER: Wgsl = Wgsl {
+    name: "sweep_sdf.wgsl",
+    text: include_str!("sweep_sdf.wgsl"),
+    includes: &[&super::gpu::PLANE],
+};
 /// The shader's stand-in for an unset distance (`UNSET`).
 const UNSET: f32 = 1.0e30;
 
@@ -46,7 +54,7 @@ pub fn signed_distance(
     let grid = start(volume, params)?;
     let dims = volume.dims();
     let plan = Plan::new(dims, &ctx.limits)?;
-    let pipeline = shader::compute_pipeline(ctx, SHADER, "sdf_plane")?;
+    let pipeline = shader::compute_pipeline(ctx, &SHADER, "sdf_plane")?;
     let h = volume.spacing();
     let mut uniforms = Params {
         dims: UVec3::new(dims[0] as u32, dims[1] as u32, dims[2] as u32),

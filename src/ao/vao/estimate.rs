@@ -1,5 +1,5 @@
 //! The openness F(v) of one voxel from the local statistics of its box: the paper's estimates
-//! (a) and (b), and Penner and Mitchell's baseline (c). shaders/vao_estimate.wgsl mirrors this
+//! (a) and (b), and Penner and Mitchell's baseline (c). src/ao/vao/vao_estimate.wgsl mirrors this
 //! file line for line.
 //!
 //! Degenerate inputs never give NaN and always give a value in [0, 1]:

@@ -1,19 +1,31 @@
-//! GPU twin of the VAO volume: shaders/vao_stats.wgsl (three 1D passes per statistic, one
-//! invocation per line) and shaders/vao_estimate.wgsl (one invocation per voxel). Every
+//! GPU twin of the VAO volume: src/ao/vao/vao_stats.wgsl (three 1D passes per statistic, one
+//! invocation per line) and src/ao/vao/vao_estimate.wgsl (one invocation per voxel). Every
 //! buffer holds a whole volume, so a volume must fit the adapter's largest storage binding
 //! (128 MiB on lavapipe: 33.5 M voxels); beyond it the error says so and the CPU twin runs it.
 
 use super::stats::{LocalStats, QUANTITIES};
 use super::{AoVolume, ScalarField, UnitMap, VaoParams};
 use crate::error::{Error, Result};
-use crate::gpu::{buffer, shader, GpuContext};
+use crate::gpu::{
+    buffer,
+    shader::{self, Wgsl},
+    GpuContext,
+};
 use crate::progress::Progress;
 use crate::volume::Volume;
 use bytemuck::{Pod, Zeroable};
 use glam::UVec3;
 
-const STATS_SHADER: &str = "vao_stats.wgsl";
-const ESTIMATE_SHADER: &str = "vao_estimate.wgsl";
+const STATS_SHADER: Wgsl = Wgsl {
+    name: "vao_stats.wgsl",
+    text: include_str!("vao_stats.wgsl"),
+    includes: &[],
+};
+const ESTIMATE_SHADER: Wgsl = Wgsl {
+    name: "vao_estimate.wgsl",
+    text: include_str!("vao_estimate.wgsl"),
+    includes: &[],
+};
 const WORKGROUP: u32 = 64;
 
 /// vao_stats.wgsl's `Params`, field for field (see the shader for each field).
@@ -71,7 +83,7 @@ fn compute_stats(
     let values = field.values.values();
     let [nx, ny, nz] = field.values.dims();
     let len = values.len();
-    let pipeline = shader::compute_pipeline(ctx, STATS_SHADER, "main")?;
+    let pipeline = shader::compute_pipeline(ctx, &STATS_SHADER, "main")?;
     let field_buffer = buffer::storage_buffer(ctx, "vao field", values)?;
     let ping = buffer::output_buffer::<f32>(ctx, "vao pass a", len)?;
     let pong = buffer::output_buffer::<f32>(ctx, "vao pass b", len)?;
@@ -172,7 +184,7 @@ pub fn ao_volume(
         .ok_or_else(|| Error::param("method", "the exact estimator runs on the CPU only"))?;
     let stats = compute_stats(ctx, field, map, params.radius, progress)?;
     let len = field.values.values().len();
-    let pipeline = shader::compute_pipeline(ctx, ESTIMATE_SHADER, "main")?;
+    let pipeline = shader::compute_pipeline(ctx, &ESTIMATE_SHADER, "main")?;
     let open = buffer::output_buffer::<f32>(ctx, "vao openness", len)?;
     // Without a variance to return, a one-value buffer stands in for the binding.
     let variance =
@@ -267,7 +279,7 @@ mod tests {
             ("REDUCE_MIN", Reduce::Min),
             ("REDUCE_MAX", Reduce::Max),
         ] {
-            assert_eq!(u32_constant(STATS_SHADER, name), reduce.shader_code());
+            assert_eq!(u32_constant(&STATS_SHADER, name), reduce.shader_code());
         }
         for (name, estimator) in [
             ("ESTIMATOR_CDF", Estimator::Cdf),
@@ -276,7 +288,7 @@ mod tests {
             ("ESTIMATOR_PENNER", Estimator::Penner),
         ] {
             assert_eq!(
-                Some(u32_constant(ESTIMATE_SHADER, name)),
+                Some(u32_constant(&ESTIMATE_SHADER, name)),
                 estimator.shader_code()
             );
         }

@@ -23,7 +23,7 @@
 //!
 //! [`window_pass`] filters `n` elements of `lanes` contiguous values each, lane by lane, so
 //! that the inner loops run over contiguous memory and vectorise; the x pass transposes each
-//! slice to make x the element axis. shaders/vao_stats.wgsl runs the same arithmetic in the
+//! slice to make x the element axis. src/ao/vao/vao_stats.wgsl runs the same arithmetic in the
 //! same order, one invocation per line.
 
 use super::estimate::BoxStats;

@@ -1,4 +1,4 @@
-//! GPU twin of DOS: shaders/dos.wgsl, one dispatch per slab over the whole image, with the
+//! GPU twin of DOS: src/render/dos/dos.wgsl, one dispatch per slab over the whole image, with the
 //! occlusion buffers ping-ponged between two storage buffers. Slabs go to the GPU in batches:
 //! one compute pass of consecutive dispatches per submission (wgpu orders them, with barriers,
 //! within the pass), each dispatch binding its own 16-byte slice of a buffer of per-slab
@@ -10,7 +10,11 @@ use super::{finish, DosInput, DosSetup, Formulation, MAX_CLIP_PLANES};
 use crate::error::{Error, Result};
 use crate::gpu::lut_shape::LutShapeUniform;
 use crate::gpu::view::ViewUniform;
-use crate::gpu::{buffer, shader, GpuContext};
+use crate::gpu::{
+    buffer,
+    shader::{self, Wgsl},
+    GpuContext,
+};
 use crate::progress::Progress;
 use crate::render::occupancy::CELL;
 use crate::render::raycast::gpu::GpuVolume;
@@ -19,12 +23,16 @@ use bytemuck::{Pod, Zeroable};
 use glam::{UVec3, Vec2, Vec3};
 use wgpu::util::DeviceExt;
 
-const SHADER: &str = "dos.wgsl";
+const SHADER: Wgsl = Wgsl {
+    name: "dos.wgsl",
+    text: include_str!("dos.wgsl"),
+    includes: &[],
+};
 const WORKGROUP: u32 = 8;
 /// Slabs per submission: bounds the bind groups alive at once and keeps cancellation prompt.
 const SLABS_PER_SUBMIT: u32 = 32;
 
-/// The shader's `Params` uniform, field for field (see shaders/dos.wgsl for each field).
+/// The shader's `Params` uniform, field for field (see src/render/dos/dos.wgsl for each field).
 #[repr(C)]
 #[derive(Clone, Copy, Pod, Zeroable)]
 struct Params {
@@ -92,7 +100,7 @@ pub fn render_uploaded(
     // The buffers' camera: the view and its guard band.
     let cam = &setup.camera;
     let pixels = cam.width as usize * cam.height as usize;
-    let pipeline = shader::compute_pipeline(ctx, SHADER, "main")?;
+    let pipeline = shader::compute_pipeline(ctx, &SHADER, "main")?;
     let texture = uploaded.texture();
     let samples: Vec<ConeSample> = setup
         .offsets
@@ -253,7 +261,7 @@ mod tests {
         assert_mirrors!(ConeSample, SHADER, "ConeSample", [offset, plane]);
         assert_mirrors!(Slab, SHADER, "Slab", [index, radius_px]);
         assert_eq!(
-            u32_constant(SHADER, "MAX_CLIP_PLANES") as usize,
+            u32_constant(&SHADER, "MAX_CLIP_PLANES") as usize,
             MAX_CLIP_PLANES
         );
     }

@@ -1,14 +1,14 @@
-//! GPU twin of IPSVI: shaders/ipsvi.wgsl traces the pixels of a line against the cache, one
-//! invocation per pixel, and shaders/ipsvi_merge.wgsl merges the line's writes into the cache
-//! as `cpu::merge` does (exactly and whatever the threads do, with 32-bit atomics: see
-//! shaders/ipsvi_cache.wgsl). Per line: the trace, in one dispatch or, when the line's rays
-//! could write more than the write list holds, in pieces that all read the same cache; after
-//! each piece a one-invocation kernel sizes the merge's indirect dispatches from the counters,
-//! and after the line's last piece the commit updates the cache. Nothing is read back until
-//! the end, and dispatches go to the GPU in batches (one compute pass per submission, wgpu
-//! ordering them with barriers, as DOS's slabs). With multiple scattering, each light's sweep
-//! begins with the chord pass (the shader's `chord_depths`, one invocation per cache texel),
-//! which writes every cache ray's optical depth through the box as `cpu::chord_depths` does.
+//! GPU twin of IPSVI: src/render/ipsvi/ipsvi.wgsl traces the pixels of a line against the cache,
+//! one invocation per pixel, and src/render/ipsvi/ipsvi_merge.wgsl merges the line's writes into
+//! the cache as `cpu::merge` does (exactly and whatever the threads do, with 32-bit atomics: see
+//! src/render/ipsvi/ipsvi_cache.wgsl). Per line: the trace, in one dispatch or, when the line's
+//! rays could write more than the write list holds, in pieces that all read the same cache; after
+//! each piece a one-invocation kernel sizes the merge's indirect dispatches from the counters, and
+//! after the line's last piece the commit updates the cache. Nothing is read back until the end,
+//! and dispatches go to the GPU in batches (one compute pass per submission, wgpu ordering them
+//! with barriers, as DOS's slabs). With multiple scattering, each light's sweep begins with the
+//! chord pass (the shader's `chord_depths`, one invocation per cache texel), which writes every
+//! cache ray's optical depth through the box as `cpu::chord_depths` does.
 
 use super::cache::{CacheMap, Map};
 use super::sweep::Lines;
@@ -16,7 +16,11 @@ use super::{finish, Gathered, IpsviInput, Scattering, Sweep};
 use crate::error::{Error, Result};
 use crate::gpu::lut_shape::LutShapeUniform;
 use crate::gpu::view::ViewUniform;
-use crate::gpu::{buffer, shader, GpuContext};
+use crate::gpu::{
+    buffer,
+    shader::{self, Wgsl},
+    GpuContext,
+};
 use crate::lights::Light;
 use crate::progress::Progress;
 use crate::render::occupancy::CELL;
@@ -25,8 +29,22 @@ use crate::render::{RenderImage, BACKGROUND_DEPTH};
 use bytemuck::{Pod, Zeroable};
 use glam::{UVec2, UVec3, Vec2, Vec3};
 
-const TRACE: &str = "ipsvi.wgsl";
-const MERGE: &str = "ipsvi_merge.wgsl";
+/// The light cache's layout and lookups, shared by the trace and the merge.
+const CACHE: Wgsl = Wgsl {
+    name: "ipsvi_cache.wgsl",
+    text: include_str!("ipsvi_cache.wgsl"),
+    includes: &[],
+};
+const TRACE: Wgsl = Wgsl {
+    name: "ipsvi.wgsl",
+    text: include_str!("ipsvi.wgsl"),
+    includes: &[&CACHE],
+};
+const MERGE: Wgsl = Wgsl {
+    name: "ipsvi_merge.wgsl",
+    text: include_str!("ipsvi_merge.wgsl"),
+    includes: &[&CACHE],
+};
 /// Invocations per workgroup of the trace and of the chord pass (the shader's WORKGROUP).
 const TRACE_WORKGROUP: u32 = 64;
 /// Bytes of the write list `render` allows: a line's pieces are as long as their rays'
@@ -116,7 +134,7 @@ impl GpuCacheMap {
     }
 }
 
-/// The shader's `Params` uniform, one per light, field for field (see shaders/ipsvi.wgsl).
+/// The shader's `Params` uniform, one per light, field for field (see src/render/ipsvi/ipsvi.wgsl).
 #[repr(C)]
 #[derive(Clone, Copy, Pod, Zeroable)]
 struct Params {
@@ -262,7 +280,7 @@ impl Kernels {
         let kernel = |entry: &str,
                       bindings: &[(u32, &wgpu::Buffer)]|
          -> Result<(wgpu::ComputePipeline, wgpu::BindGroup)> {
-            let pipeline = shader::compute_pipeline(ctx, MERGE, entry)?;
+            let pipeline = shader::compute_pipeline(ctx, &MERGE, entry)?;
             let resources: Vec<_> = bindings
                 .iter()
                 .map(|(binding, buffer)| (*binding, buffer.as_entire_binding()))
@@ -272,9 +290,9 @@ impl Kernels {
         };
         let l = lists;
         Ok(Self {
-            trace: shader::compute_pipeline(ctx, TRACE, "main")?,
+            trace: shader::compute_pipeline(ctx, &TRACE, "main")?,
             chords: multiple
-                .then(|| shader::compute_pipeline(ctx, TRACE, "chord_depths"))
+                .then(|| shader::compute_pipeline(ctx, &TRACE, "chord_depths"))
                 .transpose()?,
             arguments: kernel(
                 "arguments",
@@ -303,8 +321,8 @@ impl Kernels {
     }
 }
 
-/// The cache and the merge's lists (shaders/ipsvi_cache.wgsl), shared by every light's sweep:
-/// sized for the largest cache, and the write list for the longest line or as much of it as
+/// The cache and the merge's lists (src/render/ipsvi/ipsvi_cache.wgsl), shared by every light's
+/// sweep: sized for the largest cache, and the write list for the longest line or as much of it as
 /// `bytes` allows; also the chords of multiple scattering.
 struct Lists {
     cache: wgpu::Buffer,
@@ -658,7 +676,7 @@ mod tests {
             [kind, texel, size, light, axis, e1, e2, origin]
         );
         check_mirror(
-            MERGE,
+            &MERGE,
             "Write",
             WRITE_BYTES as usize,
             &[("texel", 0), ("hi", 4), ("lo", 8)],
@@ -675,7 +693,7 @@ mod tests {
             ("LIGHT_POINT", LIGHT_POINT),
             ("WORKGROUP", TRACE_WORKGROUP),
         ] {
-            assert_eq!(u32_constant(TRACE, name), code, "{name}");
+            assert_eq!(u32_constant(&TRACE, name), code, "{name}");
         }
     }
 

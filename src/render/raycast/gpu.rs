@@ -1,12 +1,17 @@
-//! GPU twin of the ray caster: shaders/raycast.wgsl, one invocation per pixel, dispatched in
-//! bands of rows so that each band's output fits one storage binding and progress is reported.
+//! GPU twin of the ray caster: src/render/raycast/raycast.wgsl, one invocation per pixel,
+//! dispatched in bands of rows so that each band's output fits one storage binding and progress is
+//! reported.
 
 use super::{RaycastInput, RaycastSetup, Shading};
 use crate::classify::Lut;
 use crate::error::Result;
 use crate::gpu::lut_shape::LutShapeUniform;
 use crate::gpu::view::ViewUniform;
-use crate::gpu::{buffer, shader, GpuContext, VolumeTexture};
+use crate::gpu::{
+    buffer,
+    shader::{self, Wgsl},
+    GpuContext, VolumeTexture,
+};
 use crate::lights::{Light, MAX_LIGHTS};
 use crate::progress::Progress;
 use crate::render::occupancy::{Occupancy, CELL};
@@ -15,7 +20,11 @@ use crate::volume::Volume;
 use bytemuck::{Pod, Zeroable};
 use glam::{UVec3, Vec3};
 
-const SHADER: &str = "raycast.wgsl";
+pub(crate) const SHADER: Wgsl = Wgsl {
+    name: "raycast.wgsl",
+    text: include_str!("raycast.wgsl"),
+    includes: &[],
+};
 const WORKGROUP: u32 = 8;
 /// Bands per image at least, so that long renders report progress.
 const MIN_BANDS: u32 = 8;
@@ -43,7 +52,8 @@ struct GpuLight {
     _pad: u32,
 }
 
-/// The shader's `Params` uniform, field for field (see shaders/raycast.wgsl for each field).
+/// The shader's `Params` uniform, field for field (see src/render/raycast/raycast.wgsl for each
+/// field).
 #[repr(C)]
 #[derive(Clone, Copy, Pod, Zeroable)]
 struct Params {
@@ -137,7 +147,7 @@ pub fn render_uploaded(
         ..*input
     };
     let setup = input.setup()?;
-    let pipeline = shader::compute_pipeline(ctx, SHADER, "main")?;
+    let pipeline = shader::compute_pipeline(ctx, &SHADER, "main")?;
     let (width, height) = (input.camera.width, input.camera.height);
     let mut img = RenderImage::new(width, height);
     // Bytes per row of output: RGBA f32 plus depth f32.
@@ -274,7 +284,7 @@ mod tests {
             ]
         );
         assert_mirrors!(GpuLight, SHADER, "Light", [vector, kind, colour]);
-        assert_eq!(u32_constant(SHADER, "MAX_LIGHTS") as usize, MAX_LIGHTS);
+        assert_eq!(u32_constant(&SHADER, "MAX_LIGHTS") as usize, MAX_LIGHTS);
     }
 
     #[test]
@@ -287,7 +297,7 @@ mod tests {
             ("LIGHT_DIRECTIONAL", LIGHT_DIRECTIONAL),
             ("LIGHT_POINT", LIGHT_POINT),
         ] {
-            assert_eq!(u32_constant(SHADER, name), code, "{name}");
+            assert_eq!(u32_constant(&SHADER, name), code, "{name}");
         }
     }
 }
