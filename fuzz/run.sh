@@ -3,6 +3,8 @@
 #
 #   bash fuzz/run.sh --seconds 60         every target for 60 s (what CI runs)
 #   bash fuzz/run.sh --runs 1000000 nrrd  one target for a million executions
+#   bash fuzz/run.sh --build-only         build the targets and seed the corpora, run nothing
+#                                         (CI builds first, then fuzzes while pytest runs)
 #
 # Builds the targets (no sanitizer: safe Rust; coverage instrumentation only, so the stable
 # toolchain does), seeds the corpora from ../shared's volumes and the example scenes
@@ -12,9 +14,11 @@
 set -euo pipefail
 cd "$(dirname "$0")"
 limit=(-max_total_time=60)
+build_only=false
 case "${1:-}" in
   --seconds) limit=(-max_total_time="$2"); shift 2 ;;
   --runs) limit=(-runs="$2"); shift 2 ;;
+  --build-only) build_only=true; shift ;;
 esac
 targets=("$@")
 [ ${#targets[@]} -gt 0 ] || targets=(nrrd nifti npy raw vdb scene)
@@ -23,8 +27,17 @@ for target in "${targets[@]}"; do
   cargo fuzz build --sanitizer none -O "$target"
 done
 shared="${OCCLUX_SHARED:-$(cd ../.. && pwd)/shared}"
-(cd .. && cargo build --release --quiet)
-rm -rf corpus && python3 seed.py ../target/release/occlux corpus "$shared"
+# The seeds are written by the occlux binary: $OCCLUX_BIN when the caller has just built it
+# (CI), else this checkout's release build.
+occlux="${OCCLUX_BIN:-}"
+if [ -z "$occlux" ]; then
+  (cd .. && cargo build --release --quiet -p occlux-cli)
+  occlux=../target/release/occlux
+fi
+rm -rf corpus && python3 seed.py "$occlux" corpus "$shared"
+if $build_only; then
+  exit 0
+fi
 status=0
 for target in "${targets[@]}"; do
   mkdir -p "artifacts/$target"
