@@ -1,5 +1,5 @@
 // Empty-space skipping shared by the ray-casting kernels: the occupancy grid of
-// src/render/occupancy.rs, `cells` cells of `side` voxels each. Its flags live in a storage
+// src/optics/occupancy.rs, `cells` cells of `side` voxels each. Its flags live in a storage
 // array the kernel binds (a function cannot take it), so `occupied` stays with each kernel.
 
 // The occupancy cell holding index coordinate c (Occupancy::cell_of).

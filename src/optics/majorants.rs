@@ -11,7 +11,7 @@
 
 use crate::camera::Ray;
 use crate::classify::Lut;
-use crate::render::occupancy::{cell_value_ranges, CELL};
+use crate::optics::occupancy::{cell_value_ranges, CELL};
 use crate::volume::Volume;
 use glam::Vec3;
 use rayon::prelude::*;

@@ -4,7 +4,6 @@ pub mod ao_shaded;
 pub mod dos;
 pub mod half_angle;
 pub mod ipsvi;
-pub mod occupancy;
 pub mod raycast;
 pub mod reference;
 pub mod steps;

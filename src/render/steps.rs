@@ -2,7 +2,7 @@
 //! gradient and AO-shaded DVR, IPSVI) on the CPU; `shaders/shared/common.wgsl` mirrors it for their
 //! GPU twins (`step_offset`, `view_steps`, `step_segment`).
 
-use super::occupancy::March;
+use crate::optics::occupancy::March;
 use glam::Vec3;
 
 /// The fraction of a step, in [0, 1), by which the view ray through pixel `(x, y)` shifts its

@@ -3,8 +3,8 @@
 use super::{finish, material, DosInput, DosSetup, Formulation};
 use crate::camera::intersect_box;
 use crate::error::{Error, Result};
+use crate::optics::occupancy::Occupancy;
 use crate::progress::Progress;
-use crate::render::occupancy::Occupancy;
 use crate::render::raycast::cpu::emitted;
 use crate::render::{RenderImage, BACKGROUND_DEPTH};
 use glam::{Vec2, Vec3};

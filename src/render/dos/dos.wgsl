@@ -71,7 +71,7 @@ struct Slab {
 @group(0) @binding(8) var<uniform> slab: Slab;
 // Path length through the previous slab per plane.
 @group(0) @binding(9) var<storage, read> ring_lengths: array<f32>;
-// Occupancy flags (src/render/occupancy.rs): slabs whose sample lies in an empty cell pass the
+// Occupancy flags (src/optics/occupancy.rs): slabs whose sample lies in an empty cell pass the
 // light on unchanged, with no sample taken, as on the CPU.
 @group(0) @binding(10) var<storage, read> occupancy: array<u32>;
 

@@ -15,8 +15,8 @@ use crate::gpu::{
     shader::{self, Wgsl},
     GpuContext,
 };
+use crate::optics::occupancy::CELL;
 use crate::progress::Progress;
-use crate::render::occupancy::CELL;
 use crate::render::raycast::gpu::GpuVolume;
 use crate::render::{RenderImage, BACKGROUND_DEPTH};
 use bytemuck::{Pod, Zeroable};

@@ -22,8 +22,8 @@ use crate::gpu::{
     GpuContext,
 };
 use crate::lights::Light;
+use crate::optics::occupancy::CELL;
 use crate::progress::Progress;
-use crate::render::occupancy::CELL;
 use crate::render::raycast::gpu::GpuVolume;
 use crate::render::{RenderImage, BACKGROUND_DEPTH};
 use bytemuck::{Pod, Zeroable};

@@ -13,8 +13,8 @@ use crate::gpu::{
     GpuContext, VolumeTexture,
 };
 use crate::lights::{Light, MAX_LIGHTS};
+use crate::optics::occupancy::{Occupancy, CELL};
 use crate::progress::Progress;
-use crate::render::occupancy::{Occupancy, CELL};
 use crate::render::RenderImage;
 use crate::volume::Volume;
 use bytemuck::{Pod, Zeroable};
