@@ -3,7 +3,7 @@
 //! anisotropic and flat grids. Errors are stated in units of the grid spacing h.
 
 use glam::Vec3;
-use occlux::ao::sweep::sdf::{signed_distance, SdfParams, SdfResult};
+use occlux::ao::sweep::sdf::{cpu::signed_distance, SdfParams, SdfResult};
 use occlux::error::Error;
 use occlux::progress::NoProgress;
 use occlux::volume::{phantom, Volume};

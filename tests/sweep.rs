@@ -4,7 +4,7 @@
 
 use glam::Vec3;
 use occlux::ao::reference::{ao_reference_at, AoReferenceParams, AoVariant};
-use occlux::ao::sweep::cpu::visibility;
+use occlux::ao::sweep::physical::cpu::visibility;
 use occlux::ao::{ao_volume, AoMethod, AoVolumeParams};
 use occlux::gpu::Compute;
 use occlux::pipeline::Settled;

@@ -245,7 +245,8 @@ fn both_sweeps_give_the_same_bytes_with_one_and_two_threads() {
             .unwrap();
         pool.install(|| {
             let o = run(&field, 0.5, &GeometricParams::default());
-            let physical = occlux::ao::sweep::cpu::visibility(&extinction, &NoProgress).unwrap();
+            let physical =
+                occlux::ao::sweep::physical::cpu::visibility(&extinction, &NoProgress).unwrap();
             let bits = |v: &Volume| v.values().iter().map(|x| x.to_bits()).collect::<Vec<_>>();
             (bits(&o.sdf.sdf), bits(&o.ao), bits(&physical))
         })

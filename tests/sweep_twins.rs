@@ -22,8 +22,8 @@ use common::twins::ctx;
 
 use glam::Vec3;
 use occlux::ao::sweep::geometric::{occlusion, GeometricParams, SKY};
+use occlux::ao::sweep::physical::{cpu, gpu, Stencil};
 use occlux::ao::sweep::sdf::SdfParams;
-use occlux::ao::sweep::{cpu, gpu, Stencil};
 use occlux::classify::presets;
 use occlux::error::Error;
 use occlux::gpu::Compute;
@@ -270,7 +270,7 @@ fn geometric_sweep_twins_agree() {
 /// lavapipe: 2.1e-7 (ball, anisotropic spacing), 6.0e-8 (box and sphere).
 #[test]
 fn signed_distance_twins_agree() {
-    use occlux::ao::sweep::sdf::{signed_distance, signed_distance_on};
+    use occlux::ao::sweep::sdf::{cpu::signed_distance, signed_distance_on};
     let ball = Volume::from_fn([30, 26, 22], Vec3::new(1.0, 1.0, 1.5), Vec3::ZERO, |p| {
         9.0 - (p - Vec3::new(14.3, 12.1, 15.2)).length()
     })

@@ -106,7 +106,7 @@ pub fn run(args: &SweepAccuracyArgs, quiet: bool) -> Result<()> {
             let extinction = scene.classification.extinction(&volume)?;
             let extinction_ms = started.elapsed().as_secs_f64() * 1e3;
             let started = Instant::now();
-            let visibility = ao::sweep::visibility(&compute, &extinction, &NoProgress)?;
+            let visibility = ao::sweep::physical::visibility(&compute, &extinction, &NoProgress)?;
             (
                 visibility,
                 extinction_ms,

@@ -6,7 +6,7 @@
 
 use super::bench::{timed, Timing};
 use occlux::ao::sweep::geometric::{occlusion, GeometricParams};
-use occlux::ao::sweep::sdf::{signed_distance, SdfParams};
+use occlux::ao::sweep::sdf::{cpu::signed_distance, SdfParams};
 use occlux::error::{Error, Result};
 use occlux::gpu::Compute;
 use occlux::progress::NoProgress;

@@ -327,7 +327,7 @@ pub fn ao_volume(
     }
     let extinction = classification.into_extinction(volume)?;
     Ok(AoVolume::new(
-        sweep::visibility(compute, &extinction, progress)?,
+        sweep::physical::visibility(compute, &extinction, progress)?,
         None,
     ))
 }

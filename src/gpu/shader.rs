@@ -47,8 +47,15 @@ pub const VIEW: Wgsl = Wgsl {
     text: include_str!("../../shaders/shared/view.wgsl"),
     includes: &[],
 };
+/// The voxel an invocation of an anti-diagonal plane's dispatch stands for (plane-by-plane
+/// sweeps).
+pub const PLANE: Wgsl = Wgsl {
+    name: "plane.wgsl",
+    text: include_str!("../../shaders/shared/plane.wgsl"),
+    includes: &[],
+};
 /// The helpers any kernel may include.
-pub const SHARED: &[&Wgsl] = &[&COMMON, &CLASSIFY, &OCCUPANCY, &VIEW];
+pub const SHARED: &[&Wgsl] = &[&COMMON, &CLASSIFY, &OCCUPANCY, &VIEW, &PLANE];
 
 const INCLUDE: &str = "//#include";
 

@@ -3,7 +3,7 @@
 //
 // Plane t holds the voxels whose sweep indices d (each axis counted in the sweep's direction)
 // sum to t. The dispatch enumerates the two axes other than `solved` from where the plane
-// enters them (as the host sizes it, ao::sweep::gpu::Plan::plane_workgroups); d along
+// enters them (as the host sizes it, ao::sweep::planes::Plan::plane_workgroups); d along
 // `solved` follows from t. Returns d and, in w, 1 when it lies in the grid of `n` voxels.
 fn plane_position(id: vec2<u32>, t: i32, n: vec3<i32>, solved: u32) -> vec4<i32> {
     let axis_a = (solved + 1u) % 3u;

@@ -12,7 +12,7 @@
 //! slice, or the slice before), so their sum is a vectorisable loop over the row; the step
 //! along the row itself is a first-order recurrence, swept in order.
 
-use super::padded::{octant_signs, sweep_order};
+use super::super::padded::{octant_signs, sweep_order};
 use super::{Stencil, STEPS};
 use crate::error::{Error, Result};
 use crate::progress::Progress;

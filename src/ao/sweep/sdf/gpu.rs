@@ -1,16 +1,16 @@
-//! GPU twin of the fast sweeping signed distance (src/ao/sweep/sweep_sdf.wgsl): the interface
-//! voxels are set on the CPU ([`super::sdf::start`]), then each round sweeps the eight orders plane
+//! GPU twin of the fast sweeping signed distance (src/ao/sweep/sdf/sweep_sdf.wgsl): the interface
+//! voxels are set on the CPU ([`super::start`]), then each round sweeps the eight orders plane
 //! by plane (one dispatch per anti-diagonal plane, the voxels of a plane in parallel) and reads
 //! back the round's largest decrease; the signs and the unpadding are the CPU's
-//! ([`super::sdf::finish`]).
+//! ([`super::finish`]).
 //!
 //! The planes visit the voxels in another order than the CPU's rows, so a round may leave
 //! other intermediate values, but both sweep to the same fixed point of Zhao's update: they
 //! agree to float rounding once converged (tests/sweep_twins.rs). Dispatches:
 //! rounds x 8 x (nx + ny + nz - 2).
 
-use super::gpu::Plan;
-use super::sdf::{finish, start, Rounds, SdfParams, SdfResult};
+use super::super::planes::Plan;
+use super::{finish, start, Rounds, SdfParams, SdfResult};
 use crate::error::{Error, Result};
 use crate::gpu::{
     buffer,
@@ -25,7 +25,7 @@ use glam::{UVec3, Vec3};
 const SHADER: Wgsl = Wgsl {
     name: "sweep_sdf.wgsl",
     text: include_str!("sweep_sdf.wgsl"),
-    includes: &[&super::gpu::PLANE],
+    includes: &[],
 };
 /// The shader's stand-in for an unset distance (`UNSET`).
 const UNSET: f32 = 1.0e30;
@@ -43,7 +43,7 @@ struct Params {
 }
 
 /// The signed distance to the `params.iso` surface of `volume` on the GPU, as
-/// [`super::sdf::signed_distance`] computes it. `progress` counts sweeps (eight per round) out
+/// [`super::cpu::signed_distance`] computes it. `progress` counts sweeps (eight per round) out
 /// of `8 * max_iterations`; cancelling stops between sweeps.
 pub fn signed_distance(
     ctx: &GpuContext,
