@@ -26,6 +26,7 @@ pub mod registry;
 pub mod render;
 pub mod scene;
 pub mod series;
+pub mod transport;
 pub mod volume;
 
 pub use error::{Error, Result};

@@ -2,32 +2,19 @@
 //! forms and against the Monte Carlo sphere reference on phantoms and a real CT, and as the
 //! AO of AO-shaded DVR (`ao_method = "sweep-physical"`).
 
-use glam::Vec3;
-use occlux::ao::reference::{ao_reference_at, AoReferenceParams, AoVariant};
+#[path = "common/visibility.rs"]
+mod visibility_common;
+use visibility_common::{against_reference, ball, scene_for};
+
 use occlux::ao::sweep::physical::cpu::visibility;
 use occlux::ao::{ao_volume, AoMethod, AoVolumeParams};
 use occlux::gpu::Compute;
 use occlux::pipeline::Settled;
 use occlux::progress::NoProgress;
 use occlux::scene::Scene;
-use occlux::volume::{phantom, Volume};
-use rand::{Rng, SeedableRng};
+use occlux::volume::phantom;
 use std::borrow::Cow;
 use std::path::Path;
-
-/// A ball of radius `r` (world units) of extinction `sigma` in the cube [-1, 1]^3, `n`^3 voxels.
-fn ball(n: usize, r: f32, sigma: f32) -> Volume {
-    let h = 2.0 / n as f32;
-    let origin = Vec3::splat(-1.0 + 0.5 * h);
-    Volume::from_fn([n; 3], Vec3::splat(h), origin, |p| {
-        if p.length() <= r {
-            sigma
-        } else {
-            0.0
-        }
-    })
-    .unwrap()
-}
 
 #[test]
 fn the_centre_of_a_uniform_ball_sees_exp_of_minus_sigma_r() {
@@ -58,57 +45,6 @@ fn the_centre_of_a_uniform_ball_sees_exp_of_minus_sigma_r() {
     }
 }
 
-/// RMSE and mean difference of the sweep against the sphere reference over `count` random
-/// voxels holding matter.
-fn against_reference(volume: &Volume, scene: &Scene, count: usize) -> (f64, f64, f64) {
-    let extinction = scene.classification.extinction(volume).unwrap();
-    let swept = visibility(&extinction, &NoProgress).unwrap();
-    let mut rng = rand_pcg::Pcg32::seed_from_u64(5);
-    let [nx, ny, nz] = volume.dims();
-    let mut voxels = vec![];
-    while voxels.len() < count {
-        let v = [
-            rng.random_range(0..nx),
-            rng.random_range(0..ny),
-            rng.random_range(0..nz),
-        ];
-        if extinction.at(v[0], v[1], v[2]) > 0.0 {
-            voxels.push(v);
-        }
-    }
-    let params = AoReferenceParams {
-        variant: AoVariant::Sphere,
-        samples: 512,
-        seed: 3,
-        radius: None,
-    };
-    let lut = scene.classification.bake(volume);
-    let reference = ao_reference_at(volume, &lut, &params, &voxels).unwrap();
-    let (mut sq, mut diff, mut noise) = (0.0, 0.0, 0.0);
-    for (&[i, j, k], (want, se)) in voxels.iter().zip(&reference) {
-        let d = (swept.at(i, j, k) - want) as f64;
-        sq += d * d;
-        diff += d;
-        noise += (*se as f64).powi(2);
-    }
-    let n = voxels.len() as f64;
-    ((sq / n).sqrt(), diff / n, (noise / n).sqrt())
-}
-
-fn scene_for(volume_section: &str) -> Scene {
-    let text = format!(
-        "{volume_section}\n[camera]\nposition = [3.2, -3.2, 2.6]\nwidth = 32\nheight = 32\n\
-         [[lights]]\ntype = \"ambient\"\nradiance = 1\n"
-    );
-    Scene::parse(
-        &text,
-        Path::new(env!("CARGO_MANIFEST_DIR"))
-            .join("examples")
-            .as_path(),
-    )
-    .unwrap()
-}
-
 #[test]
 fn visibility_matches_the_sphere_reference_on_a_phantom_and_the_engine() {
     let ct = scene_for(
@@ -120,7 +56,9 @@ fn visibility_matches_the_sphere_reference_on_a_phantom_and_the_engine() {
     );
     for (name, scene, limit) in [("ct phantom", ct, 0.05), ("engine", engine, 0.05)] {
         let volume = scene.load_volume().unwrap();
-        let (rmse, bias, noise) = against_reference(&volume, &scene, 300);
+        let (rmse, bias, noise) = against_reference(&volume, &scene, 300, |e| {
+            visibility(e, &NoProgress).unwrap()
+        });
         println!("{name}: RMSE {rmse:.4}, mean difference {bias:+.4}, reference noise {noise:.4}");
         assert!(rmse < limit, "{name}: RMSE {rmse}");
     }

@@ -53,7 +53,9 @@ pub fn ao_volume(
     bar.finish();
     let reach = match params.method {
         AoMethod::Vao(_) => format!("radius {} voxels", params.radius),
-        AoMethod::Sweep | AoMethod::SweepPhysical => "the whole volume".to_owned(),
+        AoMethod::Sweep | AoMethod::SweepPhysical | AoMethod::Ordinates => {
+            "the whole volume".to_owned()
+        }
     };
     say(
         quiet,

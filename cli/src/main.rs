@@ -232,9 +232,14 @@ enum Command {
         scene: PathBuf,
         /// VAO: cdf, gauss (Winitzki's erf), gauss-exact, penner, or exact (the voxel count:
         /// slow); sweep (occlusion sweeping: the AO of an iso-surface from its signed
-        /// distance); sweep-physical (the visibility, mean transmittance over all directions).
+        /// distance); sweep-physical (the visibility, mean transmittance over all directions, by
+        /// a lattice walk); ordinates (the visibility along straight paths, by discrete
+        /// ordinates).
         #[arg(long, default_value = "cdf")]
         method: String,
+        /// ordinates: the directions of the discrete ordinates.
+        #[arg(long, default_value_t = occlux::transport::DEFAULT_DIRECTIONS)]
+        directions: u32,
         /// sweep: the raw value's iso-surface (default: where a voxel of the classified
         /// extinction is half opaque).
         #[arg(long, allow_negative_numbers = true)]
@@ -472,6 +477,7 @@ fn run(cli: Cli) -> occlux::Result<()> {
         Command::Ao {
             scene,
             method,
+            directions,
             iso,
             gamma,
             octant_intensities,
@@ -505,6 +511,7 @@ fn run(cli: Cli) -> occlux::Result<()> {
                 },
                 octants,
                 convention: convention.parse()?,
+                directions,
             };
             let vdb = VdbOptions {
                 compression: compression.into(),

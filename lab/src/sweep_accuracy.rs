@@ -41,6 +41,9 @@ pub struct SweepAccuracyArgs {
     /// gamma 2, all octants).
     #[arg(long, default_value = "sweep-physical")]
     pub method: String,
+    /// The discrete ordinates' directions (`--method ordinates`).
+    #[arg(long, default_value_t = occlux::transport::DEFAULT_DIRECTIONS)]
+    pub directions: u32,
     /// Square image side for the scenes measured against the Monte Carlo reference.
     #[arg(long, default_value_t = 128)]
     pub size: u32,
@@ -82,7 +85,7 @@ pub fn run(args: &SweepAccuracyArgs, quiet: bool) -> Result<()> {
     if matches!(method, AoMethod::Vao(_)) {
         return Err(Error::param(
             "--method",
-            "sweep-physical or sweep (VAO's accuracy: occlux ao-accuracy)",
+            "sweep-physical, ordinates or sweep (VAO's accuracy: occlux ao-accuracy)",
         ));
     }
     let cycles = args.cycles.as_deref().map(read_exr).transpose()?;
@@ -101,12 +104,16 @@ pub fn run(args: &SweepAccuracyArgs, quiet: bool) -> Result<()> {
         let occlux::scene::Loaded { scene, volume, .. } = scene.load()?;
         // The physical sweep reads the extinction, timed apart; the geometric mode classifies
         // inside its own time (extinction_ms 0).
-        let (visibility, extinction_ms, sweep_ms) = if method == AoMethod::SweepPhysical {
+        let (visibility, extinction_ms, sweep_ms) = if method != AoMethod::Sweep {
             let started = Instant::now();
             let extinction = scene.classification.extinction(&volume)?;
             let extinction_ms = started.elapsed().as_secs_f64() * 1e3;
             let started = Instant::now();
-            let visibility = ao::sweep::physical::visibility(&compute, &extinction, &NoProgress)?;
+            let visibility = if method == AoMethod::Ordinates {
+                occlux::transport::visibility(&compute, &extinction, args.directions, &NoProgress)?
+            } else {
+                ao::sweep::physical::visibility(&compute, &extinction, &NoProgress)?
+            };
             (
                 visibility,
                 extinction_ms,

@@ -17,8 +17,9 @@ use pyo3::types::PyDict;
 /// `field` "extinction" or "value"; "sweep" (occlusion sweeping: the AO of the iso-surface
 /// `iso` of the raw values, or without it of the classified extinction at half its maximum,
 /// with `gamma`, the eight `octant_intensities`, the surface's opacity `alpha` and, with
-/// `combined`, the octants' plain mean); or "sweep-physical" (the visibility, the mean
-/// transmittance of the extinction over all directions). Returns {"ao": Volume (openness, 1 =
+/// `combined`, the octants' plain mean); "sweep-physical" (the visibility, the mean
+/// transmittance of the extinction over all directions, by a lattice walk); or "ordinates" (the
+/// visibility along straight paths in `directions` directions, by discrete ordinates). Returns {"ao": Volume (openness, 1 =
 /// unoccluded)} plus "ao_variance" when `variance` is true, "sdf" (the signed distance,
 /// negative inside) for "sweep", and "ao_oct0".."ao_oct7" when `octants` is true, on the
 /// volume's grid. `convention` "unoccluded" (1 in empty space and on an open flat surface, as
@@ -29,7 +30,8 @@ use pyo3::types::PyDict;
 #[pyo3(signature = (
     scene, method = "cdf", radius = 10, field = "extinction", variance = false, device = "auto",
     volume = None, progress = None, iso = None, gamma = 2.0, octant_intensities = None,
-    alpha = 1.0, combined = false, octants = false, convention = "unoccluded"
+    alpha = 1.0, combined = false, octants = false, convention = "unoccluded",
+    directions = occlux::transport::DEFAULT_DIRECTIONS
 ))]
 #[allow(clippy::too_many_arguments)] // Python keyword arguments, all with defaults
 pub fn ao_volume<'py>(
@@ -49,6 +51,7 @@ pub fn ao_volume<'py>(
     combined: bool,
     octants: bool,
     convention: &str,
+    directions: u32,
 ) -> PyResult<Bound<'py, PyDict>> {
     let intensities = match octant_intensities {
         Some(list) => GeometricParams::intensities_from(&list).map_err(py_err)?,
@@ -68,6 +71,7 @@ pub fn ao_volume<'py>(
         },
         octants,
         convention: convention.parse().map_err(py_err)?,
+        directions,
     };
     params.validate().map_err(py_err)?;
     let compute = compute(py, device)?;

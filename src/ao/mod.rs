@@ -28,7 +28,7 @@ use vao::{AoVolume, Estimator, FieldKind, ScalarField, VaoParams};
 
 /// How an AO volume is computed. By name in scene files, on the command line and in JSON: a
 /// VAO estimator's (`cdf`, `gauss`, `gauss-exact`, `penner`, `exact`), `sweep` or
-/// `sweep-physical`.
+/// `sweep-physical` or `ordinates`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(try_from = "String", into = "&'static str")]
 pub enum AoMethod {
@@ -41,6 +41,10 @@ pub enum AoMethod {
     /// Occlusion sweeping's physical mode: the visibility, the mean transmittance of the
     /// classified extinction over all directions ([`sweep`]), at any range; CPU and GPU twins.
     SweepPhysical,
+    /// The visibility by discrete ordinates ([`crate::transport`]): the mean transmittance over
+    /// a set of directions, each swept across the grid along straight paths, at any range;
+    /// CPU and GPU twins.
+    Ordinates,
 }
 
 impl Default for AoMethod {
@@ -55,6 +59,7 @@ impl AoMethod {
             AoMethod::Vao(e) => e.name(),
             AoMethod::Sweep => "sweep",
             AoMethod::SweepPhysical => "sweep-physical",
+            AoMethod::Ordinates => "ordinates",
         }
     }
 
@@ -70,12 +75,13 @@ impl std::str::FromStr for AoMethod {
         match s {
             "sweep" => Ok(AoMethod::Sweep),
             "sweep-physical" => Ok(AoMethod::SweepPhysical),
+            "ordinates" => Ok(AoMethod::Ordinates),
             _ => s.parse().map(AoMethod::Vao).map_err(|_| {
                 let vao: Vec<&str> = Estimator::ALL.iter().map(|e| e.name()).collect();
                 Error::param(
                     "method",
                     format!(
-                        "unknown AO method '{s}'; known: {}, sweep, sweep-physical",
+                        "unknown AO method '{s}'; known: {}, sweep, sweep-physical, ordinates",
                         vao.join(", ")
                     ),
                 )
@@ -189,6 +195,8 @@ pub struct AoVolumeParams {
     pub octants: bool,
     /// What the openness means: 1 = unoccluded (default), or VAO's raw openness.
     pub convention: AoConvention,
+    /// The discrete ordinates' directions ([`crate::transport::DEFAULT_DIRECTIONS`]).
+    pub directions: u32,
 }
 
 impl Default for AoVolumeParams {
@@ -203,6 +211,7 @@ impl Default for AoVolumeParams {
             geometric: GeometricParams::default(),
             octants: false,
             convention: AoConvention::default(),
+            directions: crate::transport::DEFAULT_DIRECTIONS,
         }
     }
 }
@@ -216,7 +225,7 @@ impl AoVolumeParams {
                 estimator,
                 variance: self.variance,
             }),
-            AoMethod::Sweep | AoMethod::SweepPhysical => None,
+            AoMethod::Sweep | AoMethod::SweepPhysical | AoMethod::Ordinates => None,
         }
     }
 
@@ -243,11 +252,26 @@ impl AoVolumeParams {
                 "the sweeps compute no local variance (VAO's statistics do)",
             ));
         }
-        if self.method == AoMethod::SweepPhysical && self.octants {
+        if self.method != AoMethod::Sweep && self.octants {
             return Err(Error::param(
                 "octants",
-                "the physical sweep keeps no octant grids (the geometric sweep does)",
+                "only the geometric sweep keeps octant grids",
             ));
+        }
+        if self.method == AoMethod::Ordinates {
+            let range = crate::transport::directions::MIN_DIRECTIONS
+                ..=crate::transport::directions::MAX_DIRECTIONS;
+            if !range.contains(&self.directions) {
+                return Err(Error::param(
+                    "directions",
+                    format!(
+                        "must lie in [{}, {}], got {}",
+                        range.start(),
+                        range.end(),
+                        self.directions
+                    ),
+                ));
+            }
         }
         if let Some(iso) = self.iso {
             if !iso.is_finite() {
@@ -326,8 +350,10 @@ pub fn ao_volume(
         });
     }
     let extinction = classification.into_extinction(volume)?;
-    Ok(AoVolume::new(
-        sweep::physical::visibility(compute, &extinction, progress)?,
-        None,
-    ))
+    let visibility = if params.method == AoMethod::Ordinates {
+        crate::transport::visibility(compute, &extinction, params.directions, progress)?
+    } else {
+        sweep::physical::visibility(compute, &extinction, progress)?
+    };
+    Ok(AoVolume::new(visibility, None))
 }

@@ -37,6 +37,7 @@ pub struct AoParams {
     pub ert_threshold: f32,
     pub ao_method: AoMethod,
     pub ao_radius: u32,
+    pub ao_directions: u32,
     pub ao_field: FieldKind,
     pub ao_variance: bool,
     pub ao_iso: Option<f32>,
@@ -62,6 +63,7 @@ impl Default for AoParams {
             ert_threshold: march.ert_threshold,
             ao_method: AoMethod::Vao(vao.estimator),
             ao_radius: vao.radius,
+            ao_directions: crate::transport::DEFAULT_DIRECTIONS,
             ao_field: FieldKind::default(),
             ao_variance: vao.variance,
             ao_iso: None,
@@ -114,6 +116,11 @@ const AO_METHOD: ParamSpec = ParamSpec {
                 doc: "Visibility: the mean transmittance of the extinction over all directions, \
                       in eight sweeps at any range (exact AO-shaded DVR up to its error)",
             },
+            Choice {
+                name: "ordinates",
+                doc: "Visibility by discrete ordinates: the mean transmittance along straight \
+                      paths in 64 directions, each swept across the grid, at any range",
+            },
         ],
     },
 };
@@ -122,6 +129,17 @@ const AO_RADIUS: ParamSpec = ParamSpec {
     doc: "Tangent-sphere radius in voxels (VAO's estimators)",
     kind: ParamKind::Int {
         range: Range::closed(1.0, MAX_RADIUS as f64),
+        optional: false,
+    },
+};
+const AO_DIRECTIONS: ParamSpec = ParamSpec {
+    key: "ao_directions",
+    doc: "Directions of the discrete ordinates (ao_method = \"ordinates\")",
+    kind: ParamKind::Int {
+        range: Range::closed(
+            crate::transport::directions::MIN_DIRECTIONS as f64,
+            crate::transport::directions::MAX_DIRECTIONS as f64,
+        ),
         optional: false,
     },
 };
@@ -281,6 +299,7 @@ impl AoParams {
             },
             octants: false,
             convention: self.ao_convention,
+            directions: self.ao_directions,
         }
     }
 
@@ -302,6 +321,7 @@ impl RenderMethod for AoParams {
             "vao_estimate.wgsl",
             "sweep.wgsl",
             "sweep_sdf.wgsl",
+            "visibility.wgsl",
         ],
         lights: ALL_LIGHTS,
         layers: &["beauty", "depth"],
@@ -311,6 +331,7 @@ impl RenderMethod for AoParams {
             "ao_method = \"gauss\"\nao_radius = 10",
             "ao_method = \"penner\"\nao_radius = 10",
             "ao_method = \"sweep-physical\"",
+            "ao_method = \"ordinates\"",
         ],
         for_lights: &[LightKind::Ambient],
         params: &[
@@ -318,6 +339,7 @@ impl RenderMethod for AoParams {
             ERT_THRESHOLD,
             AO_METHOD,
             AO_RADIUS,
+            AO_DIRECTIONS,
             AO_FIELD,
             AO_VARIANCE,
             AO_ISO,
@@ -346,6 +368,7 @@ impl RenderMethod for AoParams {
     fn resolve(self) -> Result<Self> {
         let defaults = Self::default();
         AO_RADIUS.check(self.ao_radius as f64)?;
+        AO_DIRECTIONS.check(self.ao_directions as f64)?;
         AO_ISO.check_optional(self.ao_iso)?;
         AO_GAMMA.check(self.ao_gamma as f64)?;
         AO_ALPHA.check(self.ao_alpha as f64)?;
@@ -389,12 +412,14 @@ impl RenderMethod for AoParams {
                     AO_VARIANCE.error("the exact estimator counts voxels and computes no variance")
                 );
             }
-            AoMethod::Sweep | AoMethod::SweepPhysical if self.ao_field != FieldKind::Extinction => {
+            AoMethod::Sweep | AoMethod::SweepPhysical | AoMethod::Ordinates
+                if self.ao_field != FieldKind::Extinction =>
+            {
                 return Err(AO_FIELD.error(
                     "the sweeps read the classified extinction (ao_iso picks a raw value's surface)",
                 ));
             }
-            AoMethod::Sweep | AoMethod::SweepPhysical
+            AoMethod::Sweep | AoMethod::SweepPhysical | AoMethod::Ordinates
                 if self.ao_variance || self.opacity_modulation =>
             {
                 return Err(AO_VARIANCE.error(
