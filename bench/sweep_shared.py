@@ -1,4 +1,4 @@
-"""The physical occlusion sweep on every shared volume with the same settings (issue 14, item 5).
+"""An ambient visibility on every shared volume with the same settings (issues 14 and 37).
 
 Writes one measurement scene per volume of ../shared/data/scivis (its README's table gives the
 kind: the `ct-bone` preset for CT and unknown scans, `simulation` for simulations; the box fitted
@@ -8,7 +8,8 @@ light of radiance 1 seen against a background of 1 (the engine scene of
 ../shared/bench/engine-cycles), against Occlux's ambient Monte Carlo reference. No parameter is
 set per volume.
 
-    .venv/bin/python bench/sweep_shared.py --size 128 --spp 1024 --out sweep-shared.json
+    .venv/bin/python bench/sweep_shared.py --method ordinates --size 128 --spp 1024 \
+        --out ordinates-shared.json
 """
 
 from __future__ import annotations
@@ -59,6 +60,7 @@ def volumes() -> list[tuple[str, str]]:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--occlux", default=str(ROOT / "target" / "release" / "occlux"))
+    parser.add_argument("--method", default="ordinates", help="ordinates or sweep-physical")
     parser.add_argument("--size", type=int, default=128)
     parser.add_argument("--spp", type=int, default=1024)
     parser.add_argument("--out", default="sweep-shared.json")
@@ -70,8 +72,8 @@ def main() -> None:
             scene.write_text(SCENE.format(path=SCIVIS / name, preset=PRESETS[kind]))
             scenes.append(str(scene))
         subprocess.run(
-            [args.occlux, "sweep-accuracy", "--scenes", ",".join(scenes), "--size", str(args.size),
-             "--spp", str(args.spp), "--device", "cpu", "-o", args.out],
+            [args.occlux, "sweep-accuracy", "--method", args.method, "--scenes", ",".join(scenes),
+             "--size", str(args.size), "--spp", str(args.spp), "--device", "cpu", "-o", args.out],
             check=True,
         )  # fmt: skip
 

@@ -38,7 +38,7 @@ class VIEW3D_PT_occlux(bpy.types.Panel):
             column.prop(settings, "ao_gamma")
             column.prop(settings, "ao_alpha")
             column.prop(settings, "ao_light")
-        elif settings.ao_method != "sweep-physical":
+        elif settings.ao_method not in ("ordinates", "sweep-physical"):
             column.prop(settings, "ao_radius")
         column.prop(settings, "ao_shading")
         column.prop(settings, "ao_factor")

@@ -374,7 +374,7 @@ fn the_bonsai_examples_show_what_each_method_is_for() {
     // content by a fifth at least (with the sky drowned by a sun, as the old examples had it,
     // the two differed by a few percent).
     let ao = (
-        "method = \"ao\"\nao_method = \"sweep-physical\"",
+        "method = \"ao\"\nao_method = \"ordinates\"",
         "method = \"gradient\"",
     );
     let (scene, volume) = example("bonsai-ao", None);

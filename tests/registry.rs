@@ -74,7 +74,11 @@ fn every_choice_parses_and_is_written_back() {
 /// Parameters whose acceptance depends on another one: what must be set with them.
 fn companions(key: &str) -> Value {
     match key {
-        "variance_max" => json!({ "opacity_modulation": true }),
+        // VAO's keys (the default AO method, the discrete ordinates, computes the visibility).
+        "variance_max" => json!({ "opacity_modulation": true, "ao_method": "cdf" }),
+        "ao_field" | "ao_variance" | "opacity_modulation" | "ao_convention" => {
+            json!({ "ao_method": "cdf" })
+        }
         "ao_iso" | "ao_gamma" | "ao_alpha" | "ao_light" => json!({ "ao_method": "sweep" }),
         _ => json!({}),
     }

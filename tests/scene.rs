@@ -160,15 +160,15 @@ fn ao_method_reads_its_keys_and_refuses_them_elsewhere() {
         p.raycast().shading,
         Shading::AmbientOcclusion { direct: None }
     );
-    // Defaults: CDF, radius 10, extinction, gradient-shaded direct light.
+    // Defaults: the visibility by discrete ordinates in 64 directions, extinction,
+    // gradient-shaded direct light.
     let scene = parse(&format!("{MINIMAL}\n[render]\nmethod = \"ao\"\n")).unwrap();
     let Method::Ao(p) = scene.method else {
         panic!()
     };
-    assert_eq!(
-        (p.vao().unwrap().estimator, p.vao().unwrap().radius),
-        (Estimator::Cdf, 10)
-    );
+    assert_eq!(p.ao_method, occlux::ao::AoMethod::Ordinates);
+    assert_eq!(p.ao_volume().directions, 64);
+    assert!(p.vao().is_none());
     assert!(matches!(
         p.raycast().shading,
         Shading::AmbientOcclusion { direct: Some(_) }

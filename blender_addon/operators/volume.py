@@ -62,6 +62,9 @@ class OCCLUX_OT_import_volume(OccluxJob, bpy.types.Operator):
         return f"loaded {result.source.path.name} as '{obj.name}' ({result.vdb})"
 
 
+# The AO methods that compute the visibility (no radius: they reach the whole volume).
+VISIBILITY = ("ordinates", "sweep-physical")
+
 # The octants' intensities of each `ao_light` (the `ao_oct` order: bit 2 set looks down -z).
 OCTANT_INTENSITIES = {"ambient": [1.0] * 8, "sky": [1.0] * 4 + [0.0] * 4}
 
@@ -74,7 +77,7 @@ def ao_options(settings: bpy.types.PropertyGroup) -> dict:
             "alpha": settings.ao_alpha,
             "octant_intensities": OCTANT_INTENSITIES[settings.ao_light],
         }
-    if settings.ao_method == "sweep-physical":
+    if settings.ao_method in VISIBILITY:
         return {}
     return {"radius": settings.ao_radius}
 
@@ -87,14 +90,14 @@ def ao_section(settings: bpy.types.PropertyGroup) -> dict:
         section.update(
             ao_gamma=settings.ao_gamma, ao_alpha=settings.ao_alpha, ao_light=settings.ao_light
         )
-    elif settings.ao_method != "sweep-physical":
+    elif settings.ao_method not in VISIBILITY:
         section["ao_radius"] = settings.ao_radius
     return section
 
 
 def ao_label(settings: bpy.types.PropertyGroup) -> str:
     """The AO method as the status line says it."""
-    if settings.ao_method.startswith("sweep"):
+    if settings.ao_method == "sweep" or settings.ao_method in VISIBILITY:
         return settings.ao_method
     return f"{settings.ao_method}, radius {settings.ao_radius}"
 

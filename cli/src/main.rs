@@ -234,8 +234,8 @@ enum Command {
         /// slow); sweep (occlusion sweeping: the AO of an iso-surface from its signed
         /// distance); sweep-physical (the visibility, mean transmittance over all directions, by
         /// a lattice walk); ordinates (the visibility along straight paths, by discrete
-        /// ordinates).
-        #[arg(long, default_value = "cdf")]
+        /// ordinates, the default).
+        #[arg(long, default_value = "ordinates")]
         method: String,
         /// ordinates: the directions of the discrete ordinates.
         #[arg(long, default_value_t = occlux::transport::DEFAULT_DIRECTIONS)]

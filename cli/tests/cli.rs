@@ -554,7 +554,7 @@ fn ao_writes_the_grids_slice_and_timing_the_library_computes() {
     let bad = out.path().join("bad");
     for (args, key) in [
         (vec!["--method", "median"], "median"),
-        (vec!["--radius", "0"], "radius"),
+        (vec!["--method", "cdf", "--radius", "0"], "radius"),
         (vec!["--field", "colour"], "colour"),
         (vec!["--convention", "blender"], "convention"),
         (
@@ -680,7 +680,7 @@ fn ao_shaded_scenes_render_and_export_the_ao_grid() {
     let scene_path = out.path().join("ball-ao.toml");
     std::fs::write(
         &scene_path,
-        format!("{base}\n[render]\nmethod = \"ao\"\nao_radius = 3\nao_variance = true\nopacity_modulation = true\n"),
+        format!("{base}\n[render]\nmethod = \"ao\"\nao_method = \"cdf\"\nao_radius = 3\nao_variance = true\nopacity_modulation = true\n"),
     )
     .unwrap();
     let dir = out.path().join("export");

@@ -47,9 +47,12 @@ pub enum AoMethod {
     Ordinates,
 }
 
+/// The default: the most accurate method whose cost is linear in the voxels (the visibility is
+/// exact AO-shaded DVR under ambient light up to its error, which the discrete ordinates keep
+/// free of the lattice walk's path-length bias; VAO's estimates are 0.7-1.9 from the truth).
 impl Default for AoMethod {
     fn default() -> Self {
-        AoMethod::Vao(Estimator::default())
+        AoMethod::Ordinates
     }
 }
 

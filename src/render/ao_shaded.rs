@@ -61,7 +61,7 @@ impl Default for AoParams {
         Self {
             step: march.step,
             ert_threshold: march.ert_threshold,
-            ao_method: AoMethod::Vao(vao.estimator),
+            ao_method: AoMethod::default(),
             ao_radius: vao.radius,
             ao_directions: crate::transport::DEFAULT_DIRECTIONS,
             ao_field: FieldKind::default(),
@@ -83,7 +83,9 @@ impl Default for AoParams {
 
 const AO_METHOD: ParamSpec = ParamSpec {
     key: "ao_method",
-    doc: "How the openness is estimated from the local statistics",
+    doc: "How the AO volume is computed: the visibility by discrete ordinates (the default: \
+          straight paths, the most accurate at O(voxels x directions)), occlusion sweeping, or a \
+          VAO estimator from the local statistics",
     kind: ParamKind::Choice {
         options: &[
             Choice {
