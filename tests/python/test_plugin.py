@@ -384,7 +384,9 @@ def test_ao_volume_refuses_bad_arguments_and_cancels() -> None:
     with pytest.raises(occlux.OccluxError, match="median"):
         occlux.ao_volume(scene, method="median", device="cpu")
     with pytest.raises(occlux.OccluxError, match="radius"):
-        occlux.ao_volume(scene, radius=0, device="cpu")
+        occlux.ao_volume(scene, method="cdf", radius=0, device="cpu")
+    with pytest.raises(occlux.OccluxError, match="directions"):
+        occlux.ao_volume(scene, directions=0, device="cpu")
     with pytest.raises(occlux.OccluxError, match="cancelled"):
         occlux.ao_volume(scene, radius=3, device="cpu", progress=lambda done, total: False)
 
