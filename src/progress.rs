@@ -23,6 +23,36 @@ impl Progress for NoProgress {
     fn update(&self, _done: u64, _total: u64) {}
 }
 
+/// One part of a longer piece of work: its units counted from `offset` within `total`, and the
+/// caller's cancellation passed through.
+pub struct Part<'a> {
+    pub whole: &'a dyn Progress,
+    pub offset: u64,
+    pub total: u64,
+}
+
+impl Progress for Part<'_> {
+    fn update(&self, done: u64, _total: u64) {
+        self.whole.update(self.offset + done, self.total)
+    }
+
+    fn cancelled(&self) -> bool {
+        self.whole.cancelled()
+    }
+}
+
+/// Passes the caller's cancellation through and reports nothing: for a step whose units do
+/// not match the caller's.
+pub struct Cancel<'a>(pub &'a dyn Progress);
+
+impl Progress for Cancel<'_> {
+    fn update(&self, _done: u64, _total: u64) {}
+
+    fn cancelled(&self) -> bool {
+        self.0.cancelled()
+    }
+}
+
 impl<F: Fn(u64, u64) + Sync> Progress for F {
     fn update(&self, done: u64, total: u64) {
         self(done, total)

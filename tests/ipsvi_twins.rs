@@ -333,6 +333,28 @@ fn wide_lines_the_basic_scheme_and_a_set_cache_size_agree() {
 }
 
 #[test]
+fn transport_agrees() {
+    // Both twins read the same field (solved on the CPU) trilinearly in the same corner
+    // order, so it adds only the rounding of eight products per sample to the tolerance's
+    // causes above: the light scattered once more differs as the samples' positions do.
+    let camera = camera();
+    let params = IpsviParams {
+        scattering: Scattering::Transport,
+        g: 0.4,
+        ..IpsviParams::default()
+    };
+    compare(
+        "transport, a sun and a lamp inside",
+        &camera,
+        vec![
+            sun(Vec3::new(-0.8, 1.0, 0.3)),
+            lamp(Vec3::new(0.35, 0.1, 0.1)),
+        ],
+        &params,
+    );
+}
+
+#[test]
 fn multiple_scattering_agrees() {
     // The diffuse term is a smooth function of the same transmittance (its slope in the
     // optical depth is below the albedo), so it differs as the light does; the GPU's

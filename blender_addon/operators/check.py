@@ -129,7 +129,7 @@ def truth_of(method: str, settings) -> tuple[str, int, float]:
     MULTIPLE_BOUNCES times for its multiple-scattering term, with its anisotropy."""
     if method != "ipsvi":
         return "ambient", 0, 0.0
-    if settings.ipsvi_scattering == "multiple":
+    if settings.ipsvi_scattering in ("multiple", "transport"):
         return "multiple", MULTIPLE_BOUNCES, settings.ipsvi_g
     return "single", 0, settings.ipsvi_g
 

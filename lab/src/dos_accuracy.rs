@@ -154,10 +154,10 @@ pub fn reference_image(
     estimator: Estimator,
     spp: u32,
 ) -> Result<ReferenceImage> {
-    seeded_reference_image(scene, volume, lut, estimator, spp, 1)
+    seeded_reference_image(scene, volume, lut, estimator, spp, 1, 0.0)
 }
 
-/// A Monte Carlo reference of `scene` with `estimator` and `seed`.
+/// A Monte Carlo reference of `scene` with `estimator`, `seed` and Henyey-Greenstein `g`.
 pub fn seeded_reference_image(
     scene: &Scene,
     volume: &occlux::volume::Volume,
@@ -165,12 +165,13 @@ pub fn seeded_reference_image(
     estimator: Estimator,
     spp: u32,
     seed: u64,
+    g: f32,
 ) -> Result<ReferenceImage> {
     let params = ReferenceParams {
         estimator,
         spp,
         seed,
-        g: 0.0,
+        g,
     };
     reference::render(
         &ReferenceInput {

@@ -65,6 +65,9 @@ pub struct IpsviAccuracyArgs {
     /// engine's Cycles reference uses 8).
     #[arg(long, default_value_t = 8)]
     pub bounces: u32,
+    /// Henyey-Greenstein asymmetry of the medium, for IPSVI and the reference alike.
+    #[arg(long, default_value_t = 0.0)]
+    pub g: f32,
     /// Square image side for the scenes measured against the Monte Carlo reference.
     #[arg(long, default_value_t = 128)]
     pub size: u32,
@@ -185,6 +188,7 @@ impl Case {
                 match p.scattering {
                     Scattering::Single => "",
                     Scattering::Multiple => " multiple",
+                    Scattering::Transport => " transport",
                 },
                 p.line_width,
                 p.cache_size.unwrap_or(0),
@@ -280,7 +284,7 @@ pub fn run(args: &IpsviAccuracyArgs, quiet: bool) -> Result<()> {
             for &scattering in &args.scattering {
                 let estimator = match scattering {
                     Scattering::Single => Estimator::Single,
-                    Scattering::Multiple => Estimator::Multiple {
+                    Scattering::Multiple | Scattering::Transport => Estimator::Multiple {
                         bounces: args.bounces,
                     },
                 };
@@ -292,8 +296,8 @@ pub fn run(args: &IpsviAccuracyArgs, quiet: bool) -> Result<()> {
                         None,
                     ),
                     None => {
-                        let mc = super::dos_accuracy::reference_image(
-                            &scene, &volume, &lut, estimator, args.spp,
+                        let mc = super::dos_accuracy::seeded_reference_image(
+                            &scene, &volume, &lut, estimator, args.spp, 1, args.g,
                         )?;
                         let mean = mc.mean.iter().map(|m| [m[0], m[1], m[2]]).collect();
                         (
@@ -314,6 +318,7 @@ pub fn run(args: &IpsviAccuracyArgs, quiet: bool) -> Result<()> {
                                     piecewise: piecewise == Switch::On,
                                     ert_threshold: if ert == Switch::On { 1e-3 } else { 0.0 },
                                     scattering,
+                                    g: args.g,
                                     ..IpsviParams::default()
                                 }));
                             }
@@ -322,8 +327,15 @@ pub fn run(args: &IpsviAccuracyArgs, quiet: bool) -> Result<()> {
                 }
                 // What the multiple-scattering term buys: single scattering against the same
                 // reference.
+                // and the transport solve beside the diffusion term.
                 if scattering == Scattering::Multiple {
-                    cases.push(Case::Ipsvi(IpsviParams::default()));
+                    for scattering in [Scattering::Single, Scattering::Transport] {
+                        cases.push(Case::Ipsvi(IpsviParams {
+                            scattering,
+                            g: args.g,
+                            ..IpsviParams::default()
+                        }));
+                    }
                 }
                 if args.half_angle
                     && scattering == Scattering::Single

@@ -106,15 +106,8 @@ fn sweep_plane(
 ) {
     let [nb, _] = planes.lateral;
     let row = planes.padded_row();
-    let [fb, fc] = o.fraction;
-    let weights = [
-        (1.0 - fb) * (1.0 - fc),
-        fb * (1.0 - fc),
-        (1.0 - fb) * fc,
-        fb * fc,
-    ];
-    // The first of the four upwind points, relative to the voxel, in the padded plane.
-    let shift = o.floor[0] as isize + row as isize * o.floor[1] as isize;
+    let weights = o.upwind_weights();
+    let shift = o.upwind_shift(row);
     let half_length = 0.5 * o.length;
     swept[row..row * (planes.lateral[1] + 1)]
         .par_chunks_mut(row)

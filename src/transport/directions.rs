@@ -41,6 +41,26 @@ pub struct Ordinate {
     pub length: f32,
 }
 
+impl Ordinate {
+    /// The bilinear weights of the four upwind lattice points, in the order the sweeps read
+    /// them: (0, 0), (1, 0), (0, 1), (1, 1) from the floor.
+    pub fn upwind_weights(&self) -> [f32; 4] {
+        let [fb, fc] = self.fraction;
+        [
+            (1.0 - fb) * (1.0 - fc),
+            fb * (1.0 - fc),
+            (1.0 - fb) * fc,
+            fb * fc,
+        ]
+    }
+
+    /// The first of the four upwind points, relative to the voxel, in a plane padded by one
+    /// voxel with rows of `row` values.
+    pub fn upwind_shift(&self, row: usize) -> isize {
+        self.floor[0] as isize + row as isize * self.floor[1] as isize
+    }
+}
+
 /// The two axes of the planes across `axis`, in increasing order (the first runs fastest in a
 /// plane's layout).
 pub fn lateral_axes(axis: usize) -> [usize; 2] {
@@ -127,6 +147,21 @@ impl Ordinates {
             }
         }
         Ok(Self { all, groups })
+    }
+
+    /// The one direction `towards` (unit, world) with all the weight: a sweep of it is the
+    /// transmittance towards a sun. Not a set that covers the sphere.
+    pub fn single(towards: Vec3, spacing: Vec3) -> Self {
+        let o = ordinate(towards.as_dvec3(), spacing.as_dvec3(), 1.0);
+        let groups = vec![Group {
+            axis: o.axis,
+            sign: o.sign,
+            members: 0..1,
+        }];
+        Self {
+            all: vec![o],
+            groups,
+        }
     }
 
     pub fn all(&self) -> &[Ordinate] {

@@ -39,6 +39,8 @@
 pub mod cpu;
 pub mod directions;
 pub mod gpu;
+pub mod medium;
+pub mod scattering;
 
 use crate::error::{Error, Result};
 use crate::gpu::Compute;

@@ -244,7 +244,7 @@ fn monte_carlo(
     seed: u64,
 ) -> Result<(f64, reference::ReferenceImage)> {
     let started = std::time::Instant::now();
-    let image = seeded_reference_image(scene, volume, lut, estimator, spp, seed)?;
+    let image = seeded_reference_image(scene, volume, lut, estimator, spp, seed, 0.0)?;
     Ok((started.elapsed().as_secs_f64(), image))
 }
 

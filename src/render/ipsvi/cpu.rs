@@ -14,6 +14,7 @@ use crate::progress::Progress;
 use crate::render::raycast::cpu::emitted;
 use crate::render::steps::{step_offset, ViewSteps};
 use crate::render::{RenderImage, BACKGROUND_DEPTH};
+use crate::transport::scattering::InScattered;
 use glam::Vec3;
 use rayon::prelude::*;
 
@@ -43,7 +44,12 @@ pub fn render(input: &IpsviInput, progress: &dyn Progress) -> Result<RenderImage
     let sweeps = input.sweeps();
     let work: u64 = sweeps.iter().map(|s| s.lines.count() as u64).sum();
     let mut done = 0;
+    let grid = input.transport_medium()?;
     for (pass, Sweep { light, lines, map }) in sweeps.iter().enumerate() {
+        let field = match &grid {
+            Some(grid) => Some(input.transport_field(grid, light, progress)?),
+            None => None,
+        };
         let tracer = Tracer {
             input,
             step,
@@ -53,9 +59,10 @@ pub fn render(input: &IpsviInput, progress: &dyn Progress) -> Result<RenderImage
             light,
             map,
             chords: &[],
+            in_scattered: field.as_ref(),
         };
         let chords = match input.params.scattering {
-            Scattering::Single => Vec::new(),
+            Scattering::Single | Scattering::Transport => Vec::new(),
             Scattering::Multiple => chord_depths(&tracer),
         };
         let tracer = Tracer {
@@ -148,6 +155,8 @@ struct Tracer<'a> {
     map: &'a CacheMap,
     /// With multiple scattering: each cache ray's optical depth through the whole box.
     chords: &'a [f32],
+    /// With transport: this light's multiply scattered light on the grid.
+    in_scattered: Option<&'a InScattered>,
 }
 
 /// The optical depth along each texel's cache ray from the light (or from outside the box,
@@ -323,7 +332,12 @@ impl Tracer<'_> {
             };
             per_irradiance += phi * std::f32::consts::FRAC_1_PI * 0.25;
         }
-        optical.albedo * per_irradiance * irradiance
+        let mut scattered = per_irradiance * irradiance;
+        if let Some(field) = self.in_scattered {
+            // Leaving towards the eye: along -dir.
+            scattered += field.at(x, -dir);
+        }
+        optical.albedo * scattered
     }
 
     /// Piecewise integration: the light's optical depth on each of the four cache rays around

@@ -26,6 +26,7 @@ use crate::optics::occupancy::CELL;
 use crate::progress::Progress;
 use crate::render::raycast::gpu::GpuVolume;
 use crate::render::{RenderImage, BACKGROUND_DEPTH};
+use crate::transport::scattering::InScattered;
 use bytemuck::{Pod, Zeroable};
 use glam::{UVec2, UVec3, Vec2, Vec3};
 
@@ -152,13 +153,29 @@ struct Params {
     ert_threshold: f32,
     piecewise: u32,
     first_pass: u32,
+    /// 0 single scattering, 1 the diffusion term (binding 9: chords), 2 the transport field
+    /// (binding 9: the field, [`field_values`]).
     multiple: u32,
     _pad: [u32; 2],
+    /// The transport field's grid (its first cell's centre, spacing and cells).
+    field_origin: Vec3,
+    _pad_origin: f32,
+    field_spacing: Vec3,
+    _pad_spacing: f32,
+    field_dims: UVec3,
+    _pad_dims: u32,
 }
 
 impl Params {
     /// The uniform of light pass `pass` (0 records emission, transmittance and depth).
-    fn new(input: &IpsviInput, step: f32, cells: [usize; 3], pass: usize, sweep: &Sweep) -> Self {
+    fn new(
+        input: &IpsviInput,
+        step: f32,
+        cells: [usize; 3],
+        pass: usize,
+        sweep: &Sweep,
+        field: Option<&InScattered>,
+    ) -> Self {
         let (light_kind, light, colour) = match *sweep.light {
             Light::Directional {
                 to_light,
@@ -187,8 +204,21 @@ impl Params {
             ert_threshold: input.params.ert_threshold,
             piecewise: u32::from(input.params.piecewise),
             first_pass: u32::from(pass == 0),
-            multiple: u32::from(input.params.scattering == Scattering::Multiple),
+            multiple: match input.params.scattering {
+                Scattering::Single => 0,
+                Scattering::Multiple => 1,
+                Scattering::Transport => 2,
+            },
             _pad: [0; 2],
+            field_origin: field.map_or(Vec3::ZERO, |f| f.grid.origin()),
+            _pad_origin: 0.0,
+            field_spacing: field.map_or(Vec3::ONE, |f| f.grid.spacing()),
+            _pad_spacing: 0.0,
+            field_dims: field.map_or(UVec3::ONE, |f| {
+                let [x, y, z] = f.grid.dims();
+                UVec3::new(x as u32, y as u32, z as u32)
+            }),
+            _pad_dims: 0,
         }
     }
 }
@@ -215,7 +245,18 @@ pub fn render_with_write_list(
     let volume = GpuVolume::upload(ctx, input.volume, input.lut)?;
     let (cells, occupancy_buffer) = volume.occupancy();
     let multiple = input.params.scattering == Scattering::Multiple;
-    let lists = Lists::new(ctx, &sweeps, writes_per_ray(input, step), bytes, multiple)?;
+    let grid = input.transport_medium()?;
+    let field_len = grid
+        .as_ref()
+        .map_or(0, |g| FIELD_STRIDE * g.scattering.len());
+    let lists = Lists::new(
+        ctx,
+        &sweeps,
+        writes_per_ray(input, step),
+        bytes,
+        multiple,
+        field_len,
+    )?;
     let camera = input.camera;
     let outputs = Outputs::new(ctx, (camera.width * camera.height) as usize)?;
     let kernels = Kernels::new(ctx, &lists, multiple)?;
@@ -233,12 +274,40 @@ pub fn render_with_write_list(
         occupancy: occupancy_buffer,
     };
     for (pass, sweep) in sweeps.iter().enumerate() {
-        let params = Params::new(input, step, cells, pass, sweep);
+        // The light's transport field, solved on the CPU, replaces the last light's (writes
+        // reach the queue after the submissions that read the last one).
+        let field = match &grid {
+            Some(grid) => {
+                let field = input.transport_field(grid, sweep.light, progress.progress)?;
+                ctx.queue.write_buffer(
+                    &lists.chords,
+                    0,
+                    bytemuck::cast_slice(&field_values(&field)),
+                );
+                Some(field)
+            }
+            None => None,
+        };
+        let params = Params::new(input, step, cells, pass, sweep, field.as_ref());
         shared.sweep(&params, sweep, &mut progress)?;
     }
     lists.check_overflow(ctx)?;
     let gathered = outputs.read(ctx)?;
     Ok(finish(camera, input.lighting.background, &gathered))
+}
+
+/// f32s per cell of the transport field on the GPU: the isotropic part's red, green and blue,
+/// then the red, green and blue channels' directional vectors.
+const FIELD_STRIDE: usize = 12;
+
+/// The transport field as the shader's `in_scattered` reads it.
+fn field_values(field: &InScattered) -> Vec<f32> {
+    field
+        .isotropic
+        .iter()
+        .zip(&field.directional)
+        .flat_map(|(i, [r, g, b])| [i.x, i.y, i.z, r.x, r.y, r.z, g.x, g.y, g.z, b.x, b.y, b.z])
+        .collect()
 }
 
 /// Most writes one view ray can leave: each write releases a cache ray that the view ray
@@ -326,8 +395,9 @@ impl Kernels {
 /// `bytes` allows; also the chords of multiple scattering.
 struct Lists {
     cache: wgpu::Buffer,
-    /// Per texel, with multiple scattering, its cache ray's optical depth through the box (the
-    /// shader's `chords`); one element otherwise (the trace binds it either way).
+    /// Per texel, with the diffusion term, its cache ray's optical depth through the box (the
+    /// shader's `chords`); with transport, the light's field ([`field_values`]); one element
+    /// otherwise (the trace binds it either way).
     chords: wgpu::Buffer,
     writes: wgpu::Buffer,
     counters: wgpu::Buffer,
@@ -347,6 +417,7 @@ impl Lists {
         per_ray: u64,
         bytes: u64,
         multiple: bool,
+        field_len: usize,
     ) -> Result<Self> {
         let texels = sweeps.iter().map(|s| s.map.texels()).max().unwrap_or(1);
         let longest = sweeps
@@ -383,7 +454,7 @@ impl Lists {
             chords: buffer::output_buffer::<f32>(
                 ctx,
                 "ipsvi chords",
-                if multiple { texels } else { 1 },
+                if multiple { texels } else { field_len.max(1) },
             )?,
             writes: buffer::output_buffer::<[u32; 3]>(ctx, "ipsvi writes", capacity)?,
             counters: buffer::output_buffer::<u32>(ctx, "ipsvi counters", 3)?,

@@ -82,8 +82,13 @@ struct Params {
     piecewise: u32,
     // 1 in the first light's pass, which also records emission, transmittance and depth.
     first_pass: u32,
-    // 1: add the diffuse light of multiple scattering (diffusion::fluence).
+    // 1: add the diffuse light of multiple scattering (diffusion::fluence); 2: add the
+    // transport field's light (in_scattered).
     multiple: u32,
+    // The transport field's grid: its first cell's centre, spacing and cells.
+    field_origin: vec3<f32>,
+    field_spacing: vec3<f32>,
+    field_dims: vec3<u32>,
 };
 
 // What one view ray gathers under one light (cpu::PixelOut).
@@ -131,7 +136,8 @@ struct Held {
 // (ipsvi::Gathered's irradiance).
 @group(0) @binding(8) var<storage, read_write> depth_out: array<vec2<f32>>;
 // Per cache texel, with multiple scattering: the optical depth of its light ray through the
-// whole box (written by `chord_depths`, read by the trace; one element when unused).
+// whole box (written by `chord_depths`, read by the trace; one element when unused); with
+// `multiple` 2 the transport field instead (in_scattered).
 @group(0) @binding(9) var<storage, read_write> chords: array<f32>;
 
 // Whether the occupancy cell may hold matter (Occupancy::occupied).
@@ -495,6 +501,33 @@ fn fluence_channel(tau_in: f32, ahead: f32, a_in: f32, g: f32) -> f32 {
     return max(phi, 0.0);
 }
 
+// InScattered::at: the transport field (binding 9, 12 f32 per cell: the isotropic part's rgb,
+// then the red, green and blue channels' directional vectors) at world point p towards
+// `leaving`, trilinear over the eight cells around p (clamped to the edge cells) in the CPU's
+// order, never negative.
+fn in_scattered(p: vec3<f32>, leaving: vec3<f32>) -> vec3<f32> {
+    let n = params.field_dims;
+    let top = vec3<f32>(n - vec3<u32>(1u));
+    let c = clamp((p - params.field_origin) / params.field_spacing, vec3<f32>(0.0), top);
+    let i0 = vec3<u32>(c);
+    let f = c - vec3<f32>(i0);
+    let i1 = min(i0 + vec3<u32>(1u), n - vec3<u32>(1u));
+    var j = vec3<f32>(0.0);
+    for (var corner = 0u; corner < 8u; corner = corner + 1u) {
+        let high = vec3<bool>((corner & 1u) != 0u, (corner & 2u) != 0u, (corner & 4u) != 0u);
+        let i = select(i0, i1, high);
+        let w3 = select(vec3<f32>(1.0) - f, f, high);
+        let w = w3.x * w3.y * w3.z;
+        let base = 12u * (i.x + n.x * (i.y + n.y * i.z));
+        let iso = vec3<f32>(chords[base], chords[base + 1u], chords[base + 2u]);
+        let r = vec3<f32>(chords[base + 3u], chords[base + 4u], chords[base + 5u]);
+        let g = vec3<f32>(chords[base + 6u], chords[base + 7u], chords[base + 8u]);
+        let b = vec3<f32>(chords[base + 9u], chords[base + 10u], chords[base + 11u]);
+        j = j + w * (iso + vec3<f32>(dot(r, leaving), dot(g, leaving), dot(b, leaving)));
+    }
+    return max(j, vec3<f32>(0.0));
+}
+
 // diffusion::fluence per colour channel of the albedo a.
 fn fluence(tau: f32, ahead: f32, a: vec3<f32>, g: f32) -> vec3<f32> {
     return vec3<f32>(
@@ -566,7 +599,12 @@ fn trace(xy: vec2<u32>) -> PixelOut {
             let phi = fluence(tau, chord - tau, o.albedo, params.g);
             per_irradiance = per_irradiance + phi * FRAC_1_PI * 0.25;
         }
-        out.scattered = out.scattered + out.transmittance * alpha * (o.albedo * per_irradiance * e);
+        var scattered = per_irradiance * e;
+        if (params.multiple == 2u) {
+            // Leaving towards the eye: along -dir.
+            scattered = scattered + in_scattered(x, -ray.dir);
+        }
+        out.scattered = out.scattered + out.transmittance * alpha * (o.albedo * scattered);
         out.emitted = out.emitted + out.transmittance * emitted(o, alpha, dt);
         // The shadow layer: the sample's light and irradiance with its contribution weight.
         let weight = out.transmittance * alpha;

@@ -49,6 +49,10 @@ const SCATTERING: ParamSpec = ParamSpec {
                       light ray, from its shadow transmittance (approximates the `multiple` \
                       reference)",
             },
+            Choice {
+                name: "transport",
+                doc: "Also light scattered before, solved on the volume's grid by discrete                       ordinates (the `multiple` reference's model, 8 bounces)",
+            },
         ],
     },
 };
@@ -63,7 +67,12 @@ impl RenderMethod for IpsviParams {
         lights: &[LightKind::Directional, LightKind::Point],
         layers: &["beauty", "depth", "shadow"],
         grids: &[],
-        chart: &["", "cache_size = 128", "scattering = \"multiple\""],
+        chart: &[
+            "",
+            "cache_size = 128",
+            "scattering = \"multiple\"",
+            "scattering = \"transport\"",
+        ],
         for_lights: &[LightKind::Directional, LightKind::Point],
         params: &[
             CACHE_SIZE,
@@ -80,7 +89,7 @@ impl RenderMethod for IpsviParams {
     fn model(&self) -> Option<Model> {
         let estimator = match self.scattering {
             Scattering::Single => Estimator::Single,
-            Scattering::Multiple => Estimator::Multiple {
+            Scattering::Multiple | Scattering::Transport => Estimator::Multiple {
                 bounces: crate::render::reference::DEFAULT_BOUNCES,
             },
         };
