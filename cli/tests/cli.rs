@@ -930,8 +930,8 @@ fn ipsvi_accuracy_measures_against_the_reference_and_names_bad_lamps() {
     let rows = report["rows"].as_array().unwrap();
     // The demo's sun (its ambient light left out) and the lamp; per light piecewise on and off
     // against the `single` reference, the same with multiple scattering against `multiple`,
-    // and single scattering against `multiple` beside them.
-    assert_eq!(rows.len(), 10, "{rows:?}");
+    // and single scattering and the transport solve against `multiple` beside them.
+    assert_eq!(rows.len(), 12, "{rows:?}");
     for row in rows {
         let method = row["method"].as_str().unwrap();
         let reference = row["reference"].as_str().unwrap();
@@ -940,26 +940,38 @@ fn ipsvi_accuracy_measures_against_the_reference_and_names_bad_lamps() {
             against_multiple || reference.starts_with("occlux-single-"),
             "{row}"
         );
-        assert!(!method.contains("multiple") || against_multiple, "{row}");
+        let multiple = method.contains("multiple") || method.contains("transport");
+        assert!(!multiple || against_multiple, "{row}");
     }
-    let baselines = rows
-        .iter()
-        .filter(|r| {
-            r["reference"]
-                .as_str()
-                .unwrap()
-                .starts_with("occlux-multiple-")
-                && !r["method"].as_str().unwrap().contains("multiple")
-        })
-        .count();
-    assert_eq!(baselines, 2, "{rows:?}");
+    let counted = |name: &str| {
+        rows.iter()
+            .filter(|r| {
+                let against_multiple = r["reference"]
+                    .as_str()
+                    .unwrap()
+                    .starts_with("occlux-multiple-");
+                let method = r["method"].as_str().unwrap();
+                let kind = if method.contains("transport") {
+                    "transport"
+                } else if method.contains("multiple") {
+                    "multiple"
+                } else {
+                    "single"
+                };
+                against_multiple && kind == name
+            })
+            .count()
+    };
+    // Per light one single-scattering baseline and one transport solve.
+    assert_eq!(counted("single"), 2, "{rows:?}");
+    assert_eq!(counted("transport"), 2, "{rows:?}");
     for row in rows {
         let error = row["rel_rmse"].as_f64().unwrap();
         assert!(error.is_finite() && error > 0.0, "{row}");
         assert!(row["ms"].as_f64().unwrap() > 0.0 && row["dvr_ms"].as_f64().unwrap() > 0.0);
     }
     let lights: Vec<&str> = rows.iter().map(|r| r["light"].as_str().unwrap()).collect();
-    assert_eq!(lights, [["scene"; 5], ["lamp"; 5]].concat());
+    assert_eq!(lights, [["scene"; 6], ["lamp"; 6]].concat());
     let run = occlux(&["ipsvi-accuracy", "--scenes", demo, "--lamp", "1,2,3"]);
     let stderr = String::from_utf8_lossy(&run.stderr);
     assert!(

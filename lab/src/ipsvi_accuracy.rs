@@ -326,8 +326,7 @@ pub fn run(args: &IpsviAccuracyArgs, quiet: bool) -> Result<()> {
                     }
                 }
                 // What the multiple-scattering term buys: single scattering against the same
-                // reference.
-                // and the transport solve beside the diffusion term.
+                // reference, and the transport solve beside the diffusion term.
                 if scattering == Scattering::Multiple {
                     for scattering in [Scattering::Single, Scattering::Transport] {
                         cases.push(Case::Ipsvi(IpsviParams {

@@ -737,7 +737,10 @@ mod tests {
                 ert_threshold,
                 piecewise,
                 first_pass,
-                multiple
+                multiple,
+                field_origin,
+                field_spacing,
+                field_dims
             ]
         );
         assert_mirrors!(
