@@ -39,6 +39,18 @@ pub struct Ray {
     pub dir: Vec3,
 }
 
+/// `v` scaled to unit length, or zero for a zero vector: scaled by its largest component
+/// first, since the squared length of a vector longer than about 1.8e19 overflows an f32 (a
+/// camera 3e30 away from its target would have had no direction).
+fn unit(v: Vec3) -> Vec3 {
+    let largest = v.abs().max_element();
+    if largest > 0.0 {
+        (v / largest).normalize_or_zero()
+    } else {
+        Vec3::ZERO
+    }
+}
+
 /// Largest image side accepted (keeps buffers within reason: 16384^2 RGBA f32 is 4 GiB).
 pub const MAX_IMAGE_SIDE: u32 = 16384;
 
@@ -58,14 +70,24 @@ impl Camera {
                 "position, target and up must be finite",
             ));
         }
-        let forward = (target - position).normalize_or_zero();
-        if forward == Vec3::ZERO {
+        let towards = target - position;
+        if !towards.is_finite() {
+            return Err(Error::param(
+                "camera",
+                format!(
+                    "position {position} and target {target} are too far apart for 32-bit \
+                     floats: move them closer"
+                ),
+            ));
+        }
+        if towards == Vec3::ZERO {
             return Err(Error::param(
                 "camera.target",
                 "must differ from camera.position",
             ));
         }
-        let right = forward.cross(up).normalize_or_zero();
+        let forward = unit(towards);
+        let right = unit(forward.cross(unit(up)));
         if right == Vec3::ZERO {
             return Err(Error::param(
                 "camera.up",
@@ -334,5 +356,22 @@ mod tests {
         assert!(err.to_string().contains("camera.up"));
         let err = Camera::look_at(Vec3::ZERO, Vec3::X, Vec3::Z, persp, 0, 8).unwrap_err();
         assert!(err.to_string().contains("camera.width"));
+        // Far but finite: a direction (was "target must differ from position", the squared
+        // length having overflowed), and a named error where the difference overflows.
+        let far = Camera::look_at(
+            Vec3::new(3.2e30, 0.0, 0.0),
+            Vec3::ZERO,
+            Vec3::Z,
+            persp,
+            8,
+            8,
+        );
+        assert!((far.unwrap().forward + Vec3::X).length() < 1e-6);
+        let err = Camera::look_at(Vec3::splat(3e38), Vec3::splat(-3e38), Vec3::Z, persp, 8, 8)
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains("too far apart"), "{err}");
+        let tiny_up = Camera::look_at(Vec3::ZERO, Vec3::Y, Vec3::new(0.0, 0.0, 1e-30), persp, 8, 8);
+        assert!((tiny_up.unwrap().up - Vec3::Z).length() < 1e-6);
     }
 }

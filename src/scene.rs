@@ -151,13 +151,18 @@ impl Scene {
     /// `occlux series` keeps to build each frame's scene).
     pub fn file_tree(path: &Path) -> Result<(Value, PathBuf)> {
         let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
-        let tree: Value = toml::from_str(&text).map_err(|e| Error::format(path, e.message()))?;
+        let tree: toml::Value =
+            toml::from_str(&text).map_err(|e| Error::format(path, e.message()))?;
+        let tree = json_tree(tree, &mut String::new())
+            .map_err(|(key, message)| Error::format(path, format!("`{key}`: {message}")))?;
         Ok((tree, path.parent().unwrap_or(Path::new(".")).to_path_buf()))
     }
 
     /// Parses and validates scene text; `base` resolves relative paths.
     pub fn parse(text: &str, base: &Path) -> Result<Self> {
-        let tree: Value = toml::from_str(text).map_err(|e| Error::param("scene", e.message()))?;
+        let tree: toml::Value =
+            toml::from_str(text).map_err(|e| Error::param("scene", e.message()))?;
+        let tree = json_tree(tree, &mut String::new()).map_err(|(key, m)| Error::param(key, m))?;
         Self::from_value(tree, base)
     }
 
@@ -380,20 +385,117 @@ enum ProjectionKind {
     Orthographic,
 }
 
-/// A grey level or an RGB triple.
-#[derive(Deserialize, Clone, Copy)]
-#[serde(untagged)]
-enum Colour {
-    Grey(f32),
-    Rgb([f32; 3]),
+/// A TOML tree as the JSON tree the scene is read from. TOML has `nan` and `inf`, JSON has
+/// neither: serde's conversion turns them into null, which an optional key reads as absent, so
+/// `background = nan` became the default unnoticed. They are refused here with the key (`key`
+/// is the path so far, as serde_path_to_error writes it).
+fn json_tree(value: toml::Value, key: &mut String) -> std::result::Result<Value, (String, String)> {
+    let at = |key: &str| {
+        if key.is_empty() {
+            "scene".to_owned()
+        } else {
+            key.to_owned()
+        }
+    };
+    Ok(match value {
+        toml::Value::Float(v) if !v.is_finite() => {
+            return Err((
+                at(key),
+                format!("{v} is not a value a scene takes: numbers must be finite"),
+            ))
+        }
+        toml::Value::Float(v) => json!(v),
+        toml::Value::Integer(v) => json!(v),
+        toml::Value::String(v) => Value::String(v),
+        toml::Value::Boolean(v) => Value::Bool(v),
+        toml::Value::Datetime(v) => Value::String(v.to_string()),
+        toml::Value::Array(items) => {
+            let mut out = Vec::with_capacity(items.len());
+            for (i, item) in items.into_iter().enumerate() {
+                let length = key.len();
+                key.push_str(&format!("[{i}]"));
+                out.push(json_tree(item, key)?);
+                key.truncate(length);
+            }
+            Value::Array(out)
+        }
+        toml::Value::Table(table) => {
+            let mut out = Map::new();
+            for (name, item) in table {
+                let length = key.len();
+                if !key.is_empty() {
+                    key.push('.');
+                }
+                key.push_str(&name);
+                out.insert(name, json_tree(item, key)?);
+                key.truncate(length);
+            }
+            Value::Object(out)
+        }
+    })
 }
+
+/// A grey level or an RGB triple, every value finite and >= 0 as an f32. Read by hand rather
+/// than as an untagged enum, whose error ("data did not match any variant") names neither the
+/// value nor what was wanted.
+#[derive(Clone, Copy)]
+struct Colour(Vec3);
 
 impl Colour {
     fn rgb(self) -> Vec3 {
-        match self {
-            Colour::Grey(g) => Vec3::splat(g),
-            Colour::Rgb(c) => Vec3::from(c),
+        self.0
+    }
+}
+
+impl<'de> Deserialize<'de> for Colour {
+    fn deserialize<D: serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> std::result::Result<Self, D::Error> {
+        use serde::de::{Error as _, SeqAccess, Visitor};
+        struct Expect;
+        fn checked<E: serde::de::Error>(value: f64) -> std::result::Result<f32, E> {
+            let narrowed = value as f32;
+            if narrowed.is_finite() && narrowed >= 0.0 {
+                Ok(narrowed)
+            } else {
+                Err(E::custom(format!(
+                    "{value} is not a colour value: each must be finite, >= 0 and at most {:e}",
+                    f32::MAX
+                )))
+            }
         }
+        impl<'de> Visitor<'de> for Expect {
+            type Value = Colour;
+            fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+                f.write_str("a grey level or [r, g, b], finite and >= 0")
+            }
+            fn visit_f64<E: serde::de::Error>(self, v: f64) -> std::result::Result<Colour, E> {
+                checked(v).map(|g| Colour(Vec3::splat(g)))
+            }
+            fn visit_i64<E: serde::de::Error>(self, v: i64) -> std::result::Result<Colour, E> {
+                self.visit_f64(v as f64)
+            }
+            fn visit_u64<E: serde::de::Error>(self, v: u64) -> std::result::Result<Colour, E> {
+                self.visit_f64(v as f64)
+            }
+            fn visit_seq<A: SeqAccess<'de>>(
+                self,
+                mut seq: A,
+            ) -> std::result::Result<Colour, A::Error> {
+                let mut rgb = Vec::with_capacity(3);
+                while let Some(v) = seq.next_element::<f64>()? {
+                    rgb.push(checked::<A::Error>(v)?);
+                }
+                match rgb[..] {
+                    [r, g, b] => Ok(Colour(Vec3::new(r, g, b))),
+                    _ => Err(A::Error::custom(format!(
+                        "a colour takes 3 values [r, g, b], got {}",
+                        rgb.len()
+                    ))),
+                }
+            }
+        }
+        deserializer.deserialize_any(Expect)
     }
 }
 

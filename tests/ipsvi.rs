@@ -16,6 +16,7 @@ use occlux::lights::{Light, Lighting};
 use occlux::metric::design_error;
 use occlux::progress::NoProgress;
 use occlux::render::half_angle::{self, HalfAngleInput, HalfAngleParams};
+use occlux::render::ipsvi::cache::{CacheMap, Resolution};
 use occlux::render::ipsvi::{cpu, diffusion, IpsviInput, IpsviParams, Scattering};
 use occlux::render::reference::{self, Estimator, ReferenceInput, ReferenceParams};
 use occlux::render::steps::step_offset;
@@ -996,4 +997,49 @@ fn half_angle_slicing_of_a_distant_lamp_is_that_of_a_sun() {
     let error = (squares / n).sqrt() / (sum / n);
     println!("half-angle, a distant lamp against its sun: relative RMSE {error:.2e}");
     assert!(error < 0.01, "{error}");
+}
+
+#[test]
+fn a_camera_inside_the_box_or_level_with_its_centre_keeps_the_light_maps_voxel_sized() {
+    // Issue 38: the automatic resolution of IPSVI's cache and of half-angle slicing's light
+    // buffer came from the pixel's width at the box's centre, ~0 for a camera there or with
+    // the centre at depth ~0, and asked for the largest map (4096^2 texels; half-angle took
+    // minutes). Texels are now never narrower than half a voxel.
+    let (volume, lut) = cube();
+    let voxel = volume.spacing().min_element();
+    let perspective = Projection::Perspective { fov_y: 0.7 };
+    for (what, position) in [
+        ("inside the box", Vec3::ZERO),
+        ("level with its centre", Vec3::new(-3.0, 0.0, 0.0)),
+    ] {
+        let camera =
+            Camera::look_at(position, position + Vec3::Y, Vec3::Z, perspective, 16, 16).unwrap();
+        let resolution = Resolution::for_view(None, &volume, &camera);
+        let Resolution::Footprint(width) = resolution else {
+            panic!("{what}: {resolution:?}");
+        };
+        assert!(
+            width >= 0.5 * voxel && width <= voxel,
+            "{what}: texels {width} wide"
+        );
+        let sun = sunlight(Vec3::new(0.3, -0.5, 1.0).normalize());
+        let (lo, hi) = volume.bounds();
+        let map = CacheMap::new(&sun.lights[0], lo, hi, resolution).unwrap();
+        let most = ((hi - lo).length() / (0.5 * voxel)).ceil() as u32 + 1;
+        assert!(
+            map.size.max_element() <= most,
+            "{what}: {:?} texels",
+            map.size
+        );
+        let params = HalfAngleParams::default();
+        let input = HalfAngleInput {
+            volume: &volume,
+            lut: &lut,
+            camera: &camera,
+            lighting: &sun,
+            params: &params,
+        };
+        let img = half_angle::cpu::render(&input, &NoProgress).unwrap();
+        assert!(img.rgba.iter().flatten().all(|v| v.is_finite()), "{what}");
+    }
 }

@@ -1439,6 +1439,11 @@ fn bad_nifti_headers_are_named() {
     let mut flat = Nifti::new([2, 2, 2], t);
     flat.dim[0] = 2;
     cases.push(("flat", flat, &["dim[0] = 2", "3-D"]));
+    // dim[0] outside 1..=7 made the nifti crate read the header byte-swapped, and the error
+    // named a sizeof_hdr of 1543569408.
+    let mut nine = Nifti::new([2, 2, 2], t);
+    nine.dim[0] = 9;
+    cases.push(("nine", nine, &["dim[0] = 9", "1 to 7"]));
     let mut series = Nifti::new([2, 2, 2], t);
     series.dim[0] = 4;
     series.dim[4] = 3;
@@ -1485,6 +1490,12 @@ fn bad_nifti_headers_are_named() {
     let compressed = gzip(&Nifti::new([8, 8, 8], t).bytes(&garbage(512)));
     std::fs::write(&gz, &compressed[..compressed.len() - 100]).unwrap();
     assert_mentions(&failure(&gz, &opts()), &["NIfTI data", "truncated"]);
+    // A .nii.gz that is not gzip: was Rust's Debug text of the decoder's error.
+    let plain = dir.path().join("plain.nii.gz");
+    std::fs::write(&plain, Nifti::new([2, 2, 2], t).bytes(&data)).unwrap();
+    let message = failure(&plain, &opts());
+    assert_mentions(&message, &["gzip", "name it .nii"]);
+    assert!(!message.contains("Custom"), "{message}");
 }
 
 #[test]

@@ -123,6 +123,42 @@ fn out_of_range_values_are_named() {
 }
 
 #[test]
+fn colours_name_the_key_and_the_value_and_never_become_zero() {
+    // Issue 38: `background = nan` became 0 unnoticed and an infinite irradiance was
+    // refused with serde's "data did not match any variant of untagged enum Colour".
+    let lamp = |irradiance: &str| {
+        format!("{MINIMAL}\n[[lights]]\ntype = \"directional\"\ndirection = [0, 0, 1]\nirradiance = {irradiance}\n")
+    };
+    for value in [
+        "nan",
+        "inf",
+        "-inf",
+        "-1",
+        "1e39",
+        "[nan, 0, 0]",
+        "[0.1, inf, 1]",
+    ] {
+        let err = error_of(&format!("background = {value}\n{MINIMAL}"));
+        assert!(err.contains("background"), "{value}: {err}");
+        assert!(!err.contains("untagged"), "{value}: {err}");
+        let err = error_of(&lamp(value));
+        assert!(err.contains("lights[0]"), "{value}: {err}");
+        assert!(err.contains("finite"), "{value}: {err}");
+    }
+    let err = error_of(&format!("background = [1, 2]\n{MINIMAL}"));
+    assert!(err.contains("3 values [r, g, b], got 2"), "{err}");
+    let err = error_of(&format!("background = \"white\"\n{MINIMAL}"));
+    assert!(err.contains("a grey level or [r, g, b]"), "{err}");
+    let scene = parse(&format!("background = [0.25, 1, 0]\n{MINIMAL}")).unwrap();
+    assert_eq!(scene.lighting.background, Vec3::new(0.25, 1.0, 0.0));
+    let scene = parse(&lamp("3")).unwrap();
+    assert!(matches!(
+        scene.lighting.lights[..],
+        [occlux::lights::Light::Directional { irradiance, .. }] if irradiance == Vec3::splat(3.0)
+    ));
+}
+
+#[test]
 fn file_errors_name_the_file() {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("broken.toml");

@@ -114,13 +114,13 @@ enum Command {
     Info {
         file: PathBuf,
         /// For .raw files: dims as X,Y,Z.
-        #[arg(long, value_delimiter = ',', num_args = 3)]
+        #[arg(long, value_delimiter = ',')]
         raw_dims: Option<Vec<usize>>,
         /// For .raw files: uint8, int8, uint16, int16, uint32, int32, float, double.
         #[arg(long)]
         raw_type: Option<String>,
         /// For .raw files: spacing as X,Y,Z.
-        #[arg(long, value_delimiter = ',', num_args = 3)]
+        #[arg(long, value_delimiter = ',')]
         raw_spacing: Option<Vec<f32>>,
         /// For .vdb files: the grid to read.
         #[arg(long)]
@@ -343,6 +343,15 @@ impl From<VdbCompression> for Compression {
 }
 
 fn main() -> ExitCode {
+    // Rust ignores SIGPIPE, so printing into a pipe whose reader has gone (`occlux info F |
+    // head -1`) fails, and println! panics on that. Restore the default every Unix filter has:
+    // the process ends quietly when its reader does. Outputs are written atomically and a
+    // staging folder left by an ended run is removed by the next, so nothing half-written stays.
+    #[cfg(unix)]
+    // SAFETY: called first, before any thread exists; SIG_DFL is a valid disposition.
+    unsafe {
+        libc::signal(libc::SIGPIPE, libc::SIG_DFL);
+    }
     let cli = Cli::parse();
     match run(cli) {
         Ok(()) => ExitCode::SUCCESS,
@@ -568,17 +577,30 @@ fn load_options(
             raw_type.ok_or_else(|| occlux::Error::param("--raw-type", "needed with --raw-dims"))?;
         let scalar = ScalarType::from_name(&name)
             .ok_or_else(|| occlux::Error::param("--raw-type", format!("unknown type '{name}'")))?;
-        let spacing = raw_spacing.unwrap_or_else(|| vec![1.0; 3]);
+        let spacing = match raw_spacing {
+            Some(spacing) => xyz("--raw-spacing", &spacing)?,
+            None => [1.0; 3],
+        };
         options.raw = Some(RawSpec {
-            dims: [dims[0], dims[1], dims[2]],
+            dims: xyz("--raw-dims", &dims)?,
             scalar,
-            spacing: glam::Vec3::new(spacing[0], spacing[1], spacing[2]),
+            spacing: glam::Vec3::from_array(spacing),
             origin: glam::Vec3::ZERO,
             big_endian: false,
             header_bytes: 0,
         });
     }
     Ok(options)
+}
+
+/// The three values of an X,Y,Z option (clap splits them at the commas).
+fn xyz<T: Copy>(flag: &str, values: &[T]) -> occlux::Result<[T; 3]> {
+    <[T; 3]>::try_from(values).map_err(|_| {
+        occlux::Error::param(
+            flag,
+            format!("takes three values as X,Y,Z, got {}", values.len()),
+        )
+    })
 }
 
 impl EstimatorName {

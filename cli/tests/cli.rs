@@ -284,6 +284,53 @@ fn info_counts_the_time_steps_of_a_series_and_describes_the_first() {
 }
 
 #[test]
+fn info_reads_raw_dims_as_the_help_writes_them_and_ends_quietly_into_a_closed_pipe() {
+    // Issue 38: `--raw-dims 32,32,32`, the form of README and of the raw loader's own error,
+    // was refused by the argument parser; `occlux info F | head -1` panicked (rc 101).
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("scan.raw");
+    std::fs::write(&path, (0..4 * 3 * 2).map(|v| v as u8).collect::<Vec<u8>>()).unwrap();
+    let file = path.to_str().unwrap();
+    let run = occlux(&[
+        "info",
+        file,
+        "--raw-dims",
+        "4,3,2",
+        "--raw-type",
+        "uint8",
+        "--raw-spacing",
+        "1,1,2.5",
+    ]);
+    let text = String::from_utf8_lossy(&run.stdout);
+    assert!(
+        run.status.success(),
+        "{}",
+        String::from_utf8_lossy(&run.stderr)
+    );
+    assert!(text.contains("dims      4 x 3 x 2"), "{text}");
+    assert!(text.contains("values    0 .. 23"), "{text}");
+    let run = occlux(&["info", file, "--raw-dims", "4,3", "--raw-type", "uint8"]);
+    let err = String::from_utf8_lossy(&run.stderr);
+    assert!(!run.status.success());
+    assert!(
+        err.contains("--raw-dims") && err.contains("three values"),
+        "{err}"
+    );
+    // The reader goes before occlux writes a line.
+    let mut child = Command::new(env!("CARGO_BIN_EXE_occlux"))
+        .args(["info", file, "--raw-dims", "4,3,2", "--raw-type", "uint8"])
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    drop(child.stdout.take());
+    let ended = child.wait_with_output().unwrap();
+    let err = String::from_utf8_lossy(&ended.stderr);
+    assert!(!err.contains("panicked"), "{err}");
+    assert_ne!(ended.status.code(), Some(101), "{err}");
+}
+
+#[test]
 fn a_missing_relative_path_says_where_it_was_looked_for() {
     let run = occlux(&["info", "no/such/volume.nrrd"]);
     assert!(!run.status.success());

@@ -11,6 +11,7 @@ use crate::export::atomic::write_atomic;
 use crate::render::RenderImage;
 use exr::prelude::*;
 use std::collections::BTreeMap;
+use std::io::Write;
 use std::path::Path;
 
 /// Sample precision of the colour layers.
@@ -121,7 +122,7 @@ pub fn write_exr(
     }
     let mut channels = SmallVec::<[AnyChannel<FlatSamples>; 4]>::new();
     for layer in layers {
-        validate_layer(layer, pixels)?;
+        validate_layer(layer, pixels, precision)?;
         for (c, channel) in layer.channels.iter().enumerate() {
             let values = layer.pixels.iter().skip(c).step_by(layer.channels.len());
             // Depth keeps float32: Blender's background depth 1e10 overflows float16.
@@ -155,12 +156,57 @@ pub fn write_exr(
     write_atomic(path, |w| {
         image
             .write()
-            .to_buffered(w)
-            .map_err(|e| Error::format(path, format!("writing EXR: {e}")))
+            .to_buffered(&mut *w)
+            .map_err(|e| Error::format(path, format!("writing EXR: {e}")))?;
+        w.flush().map_err(|e| Error::io(path, e))?;
+        sort_header_attributes(w.get_mut()).map_err(|e| Error::io(path, e))
     })
 }
 
-fn validate_layer(layer: &ExrLayer, pixels: usize) -> Result<()> {
+/// Puts the header's attributes of the single-part EXR in `file` in the order of their names.
+/// The exr crate keeps the text attributes in a `HashMap` and writes them in its iteration
+/// order, which changes from run to run, so the same render would give files that differ in
+/// bytes. The EXR format allows attributes in any order, and a permutation keeps the header's
+/// length, so the offset table and pixel data after it stay valid.
+fn sort_header_attributes(file: &mut std::fs::File) -> std::io::Result<()> {
+    use std::io::{BufRead, Read, Seek, SeekFrom};
+    file.seek(SeekFrom::Start(8))?;
+    let mut header = std::io::BufReader::new(&mut *file);
+    // Each attribute: its name and type, each ending in a zero byte, a 4-byte size and the
+    // value; an empty name ends the header.
+    let mut records: Vec<(Vec<u8>, Vec<u8>)> = Vec::new();
+    loop {
+        let mut name = Vec::new();
+        header.read_until(0, &mut name)?;
+        if name.len() <= 1 {
+            break;
+        }
+        let mut record = name.clone();
+        header.read_until(0, &mut record)?;
+        let mut size = [0u8; 4];
+        header.read_exact(&mut size)?;
+        record.extend_from_slice(&size);
+        let size = u32::from_le_bytes(size) as u64;
+        let before = record.len();
+        header.by_ref().take(size).read_to_end(&mut record)?;
+        if (record.len() - before) as u64 != size {
+            return Err(std::io::Error::new(
+                std::io::ErrorKind::UnexpectedEof,
+                "the EXR header ends inside an attribute",
+            ));
+        }
+        records.push((name, record));
+    }
+    drop(header);
+    records.sort();
+    file.seek(SeekFrom::Start(8))?;
+    for (_, record) in &records {
+        file.write_all(record)?;
+    }
+    Ok(())
+}
+
+fn validate_layer(layer: &ExrLayer, pixels: usize, precision: Precision) -> Result<()> {
     let key = format!("exr layer `{}`", layer.name);
     let valid_name = |s: &str| !s.is_empty() && s.is_ascii() && !s.contains('.');
     if !valid_name(&layer.name) || !layer.channels.iter().all(|c| valid_name(c)) {
@@ -190,6 +236,27 @@ fn validate_layer(layer: &ExrLayer, pixels: usize) -> Result<()> {
                 layer.pixels[i]
             ),
         ));
+    }
+    // Float16 holds at most 65504: a larger colour would be written as infinity.
+    let largest = f16::MAX.to_f32();
+    if precision == Precision::Half {
+        for (c, channel) in layer.channels.iter().enumerate() {
+            // Depth is float32 whatever the precision.
+            if channel == "Z" {
+                continue;
+            }
+            let values = layer.pixels.iter().skip(c).step_by(layer.channels.len());
+            if let Some((p, v)) = values.enumerate().find(|(_, v)| v.abs() > largest) {
+                return Err(Error::param(
+                    &key,
+                    format!(
+                        "channel {channel} at pixel {p} is {v}, beyond float16's {largest}: \
+                         write float32 (occlux --float32, Python float32=True) or dimmer \
+                         lights"
+                    ),
+                ));
+            }
+        }
     }
     Ok(())
 }
@@ -367,6 +434,62 @@ mod tests {
         }];
         assert!(write_exr(&path, 3, 2, &short, &BTreeMap::new(), Precision::Half).is_err());
         assert!(std::fs::read_dir(dir.path()).unwrap().next().is_none());
+    }
+
+    #[test]
+    fn the_same_image_gives_the_same_bytes() {
+        // The exr crate's attribute map iterates in an order seeded per map, so without the
+        // sort ten attributes came out in a different order nearly every time.
+        let dir = tempfile::tempdir().unwrap();
+        let meta: BTreeMap<String, String> = (0..10)
+            .map(|i| (format!("occlux/key{i}"), format!("value {i}")))
+            .collect();
+        let files: Vec<Vec<u8>> = (0..4)
+            .map(|i| {
+                let path = dir.path().join(format!("{i}.exr"));
+                write_exr(&path, 3, 2, &layers(), &meta, Precision::Half).unwrap();
+                std::fs::read(&path).unwrap()
+            })
+            .collect();
+        assert!(files.windows(2).all(|pair| pair[0] == pair[1]));
+        let back = read_exr(&dir.path().join("0.exr")).unwrap();
+        for (key, value) in &meta {
+            assert_eq!(back.metadata.get(key), Some(value), "{key}");
+        }
+        assert_eq!(
+            back.layer("beauty").unwrap().channel("B").unwrap(),
+            [2.0; 6]
+        );
+    }
+
+    #[test]
+    fn colours_beyond_float16_are_refused_in_half_and_kept_in_float() {
+        // 65504 is float16's largest value: 3e5 would have been written as infinity.
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("bright.exr");
+        let mut bright = layers();
+        bright[0].pixels[4 * 3 + 1] = 3e5;
+        let err = write_exr(&path, 3, 2, &bright, &BTreeMap::new(), Precision::Half)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            err.contains("channel G at pixel 3")
+                && err.contains("65504")
+                && err.contains("float32"),
+            "{err}"
+        );
+        assert!(!path.exists());
+        write_exr(&path, 3, 2, &bright, &BTreeMap::new(), Precision::Float).unwrap();
+        let back = read_exr(&path).unwrap();
+        assert_eq!(back.layer("beauty").unwrap().channel("G").unwrap()[3], 3e5);
+        // The largest float16 itself is written as it is.
+        bright[0].pixels[4 * 3 + 1] = 65504.0;
+        write_exr(&path, 3, 2, &bright, &BTreeMap::new(), Precision::Half).unwrap();
+        let back = read_exr(&path).unwrap();
+        assert_eq!(
+            back.layer("beauty").unwrap().channel("G").unwrap()[3],
+            65504.0
+        );
     }
 
     #[test]

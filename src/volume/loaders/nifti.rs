@@ -71,8 +71,19 @@ pub(super) fn frame_count(path: &Path, opts: &LoadOptions) -> Result<usize> {
 
 /// The file's bytes, decompressed on the fly when it is gzipped.
 fn open(path: &Path) -> Result<Box<dyn Source>> {
-    let reader = BufReader::new(File::open(path).map_err(|e| Error::io(path, e))?);
+    let mut reader = BufReader::new(File::open(path).map_err(|e| Error::io(path, e))?);
     let gzipped = path.to_string_lossy().to_ascii_lowercase().ends_with(".gz");
+    if gzipped {
+        use std::io::BufRead;
+        let start = reader.fill_buf().map_err(|e| Error::io(path, e))?;
+        if !start.starts_with(&[0x1f, 0x8b]) {
+            return Err(Error::format(
+                path,
+                "a .gz file must be gzip-compressed, and this one does not start as gzip does \
+                 (bytes 1f 8b): if it is an uncompressed NIfTI, name it .nii",
+            ));
+        }
+    }
     Ok(if gzipped {
         Box::new(GzDecoder::new(reader))
     } else {
@@ -145,6 +156,7 @@ fn header_error(path: &Path, error: NiftiError) -> Error {
         NiftiError::InvalidFormat => {
             "not a NIfTI-1 file: the magic at byte 344 is neither \"n+1\" nor \"ni1\"".to_string()
         }
+        NiftiError::Io(e) => format!("cannot read the NIfTI-1 header: {e}"),
         other => format!("cannot read the NIfTI-1 header: {other}"),
     };
     Error::format(path, message)
@@ -152,6 +164,19 @@ fn header_error(path: &Path, error: NiftiError) -> Error {
 
 /// Only single-file NIfTI-1 is read.
 fn check_kind(path: &Path, header: &NiftiHeader) -> Result<()> {
+    // The nifti crate takes the byte order in which dim[0] lies in 1..=7; when it lies there in
+    // neither, it reads the header swapped, and sizeof_hdr comes out as 348 with its bytes
+    // reversed. Name dim[0] as the file holds it then, not the swapped size.
+    if header.sizeof_hdr.swap_bytes() == HEADER_BYTES as i32 {
+        let stated = (header.dim[0] as i16).swap_bytes();
+        return Err(Error::format(
+            path,
+            format!(
+                "dim[0] = {stated}: a NIfTI-1 header's dim[0] counts the axes, 1 to 7 \
+                 (3 for a volume, 4 for a time series)"
+            ),
+        ));
+    }
     if header.sizeof_hdr != HEADER_BYTES as i32 {
         return Err(Error::format(
             path,
