@@ -8,7 +8,7 @@
 //! outermost [`TRIM`] of them, so that a few noisy voxels in empty space do not widen it.
 
 use crate::classify::{presets, Classification, ValueRange, ValueUnits, Window};
-use crate::error::Result;
+use crate::error::{Error, Result};
 use crate::scene::{Centre, Loaded, Scene, AUTO_FIT};
 use crate::volume::Volume;
 use glam::Vec3;
@@ -42,7 +42,7 @@ pub fn settle(scene: &Scene, mut volume: Volume, hounsfield: Option<&str>) -> Re
     let mut scene = scene.clone();
     let mut notices = Vec::new();
     settle_units(&mut scene, hounsfield, &mut notices)?;
-    settle_window(&mut scene.classification, &volume, &mut notices);
+    settle_window(&mut scene.classification, &volume, &mut notices)?;
     let wants_content = scene.volume.centre == Some(Centre::Content) || scene.framing.is_some();
     // A pass over every voxel (a tenth of a second per 8 million): only when something uses it.
     let content = if wants_content || scene.volume.fit.is_none() {
@@ -117,8 +117,26 @@ fn settle_units(
     Ok(())
 }
 
-/// Resolves the normalised window, saying which values it spans.
-fn settle_window(c: &mut Classification, volume: &Volume, notices: &mut Vec<String>) {
+/// Resolves the normalised window, saying which values it spans. The classification's table
+/// spans the window (a little past it), or the volume's whole value range for `range = "full"`
+/// and for raw and HU units: a range wider than an f32 holds (finite values near +-3.4e38)
+/// would divide every lookup by infinity and classify every voxel as clear, so it is refused.
+fn settle_window(c: &mut Classification, volume: &Volume, notices: &mut Vec<String>) -> Result<()> {
+    let spans_values = c.units != ValueUnits::Normalized || c.range == ValueRange::Full;
+    if spans_values {
+        let (lo, hi) = volume.value_range();
+        if !(hi - lo).is_finite() {
+            return Err(Error::param(
+                "classification.range",
+                format!(
+                    "the values span {lo:e} .. {hi:e}, a range wider than 32-bit floats hold \
+                     ({:e}): classify on the robust window (the default, range = \"robust\") or \
+                     on a window [lo, hi]",
+                    f32::MAX
+                ),
+            ));
+        }
+    }
     let how = match c.units {
         ValueUnits::Normalized => match c.range {
             ValueRange::Robust => {
@@ -137,6 +155,7 @@ fn settle_window(c: &mut Classification, volume: &Volume, notices: &mut Vec<Stri
         ValueUnits::Hu => "in Hounsfield units".into(),
     };
     notices.push(format!("classification: {how}"));
+    Ok(())
 }
 
 /// The visible content of `volume` under `classification` (its window resolved or not); None

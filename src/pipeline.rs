@@ -285,10 +285,11 @@ pub fn export(
         &scene.lighting.lights,
     )?;
     // All four files or none: the stage points at the grids, and a stage without its images
-    // (or grids without their stage) would be a half export.
+    // (or grids without their stage) would be a half export. The stage is the set's marker,
+    // moved into place last: where it is, the whole export is.
     let mut set = OutputSet::new(out_dir)?;
     write_vdb(&set.path(&vdb_name)?, &grids, vdb)?;
-    write_usda(&set.path(&format!("{stem}.usda"))?, &stage)?;
+    write_usda(&set.marker(&format!("{stem}.usda"))?, &stage)?;
     let image = &rendered.image;
     let meta = header_metadata(settled);
     write_image_files(image, &render_layers(image), &meta, &mut set, stem, output)?;
@@ -398,7 +399,8 @@ pub fn write_ao(
     write_png_preview(&png, &middle_slice(&ao.openness), 1.0)?;
     let text =
         serde_json::to_string_pretty(record).map_err(|e| Error::param("json", e.to_string()))?;
-    write_bytes_atomic(&set.path(&format!("{stem}-ao.json"))?, text.as_bytes())?;
+    // The record is the set's marker, moved into place last: where it is, the grids are.
+    write_bytes_atomic(&set.marker(&format!("{stem}-ao.json"))?, text.as_bytes())?;
     set.commit()
 }
 

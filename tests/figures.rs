@@ -433,3 +433,48 @@ fn the_bonsai_examples_show_what_each_method_is_for() {
         "{dark} of the content in shadow"
     );
 }
+
+/// Finite values near the f32 limit: the table over the full range would span more than an
+/// f32 holds and classify every voxel as clear (issue 38: an empty image, no word). The full
+/// range and raw units are refused by name; the robust window is that of the other voxels.
+#[test]
+fn a_value_range_wider_than_f32_is_refused_where_the_table_would_span_it() {
+    // A slab of 2s in 1s, and one voxel at each extreme.
+    let mut values = vec![1.0f32; 16 * 16 * 16];
+    values[0] = -3e38;
+    values[1] = 3e38;
+    for v in &mut values[16 * 16 * 6..16 * 16 * 10] {
+        *v = 2.0;
+    }
+    let volume = Volume::new([16; 3], Vec3::splat(0.125), Vec3::splat(-0.9375), values).unwrap();
+    let scene = |classification: &str| {
+        Scene::parse(
+            &format!(
+                "[volume]\nphantom = \"sphere\"\nsize = 8\n[classification]\n{classification}\n\
+                 [camera]\nposition = [0, -4, 0]\nwidth = 8\nheight = 8\n"
+            ),
+            Path::new("."),
+        )
+        .unwrap()
+    };
+    for classification in [
+        "range = \"full\"",
+        "units = \"raw\"\npoints = [{ value = 1, sigma_t = 0 }, { value = 2, sigma_t = 5 }]",
+    ] {
+        let err = framing::settle(&scene(classification), volume.clone(), None)
+            .err()
+            .unwrap_or_else(|| panic!("{classification}: settled"))
+            .to_string();
+        assert!(
+            err.contains("classification.range") && err.contains("3e38"),
+            "{err}"
+        );
+    }
+    // The robust window leaves the two extremes out (its quantiles, interpolated in f64, no
+    // longer overflow to an infinite top).
+    let robust = framing::settle(&scene(""), volume, None).unwrap();
+    match robust.scene.classification.range {
+        occlux::classify::ValueRange::Window(w) => assert_eq!((w.lo, w.hi), (1.0, 2.0)),
+        other => panic!("{other:?}"),
+    }
+}

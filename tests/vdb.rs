@@ -290,7 +290,7 @@ fn grids_of_more_leaves_than_a_batch_read_back_exactly() {
     let volume = Volume::from_fn(dims, Vec3::ONE, Vec3::ZERO, |p| {
         // Distinct per voxel, and 0 (inactive) on one voxel in seven.
         let n = p.x + 136.0 * (p.y + 136.0 * p.z);
-        if n as u64 % 7 == 0 {
+        if (n as u64).is_multiple_of(7) {
             0.0
         } else {
             1.0 + n

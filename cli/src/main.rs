@@ -352,6 +352,16 @@ fn main() -> ExitCode {
     unsafe {
         libc::signal(libc::SIGPIPE, libc::SIG_DFL);
     }
+    // Interrupted (Ctrl-C, SIGTERM, SIGHUP), the outputs being written are removed: their
+    // staging folders go, and what the folder held before stays. 130 is the shell's status for
+    // a run ended by Ctrl-C.
+    if let Err(e) = ctrlc::set_handler(|| {
+        occlux::export::atomic::remove_live_staging();
+        eprintln!("interrupted: partial outputs removed");
+        std::process::exit(130);
+    }) {
+        eprintln!("warning: interrupting will leave partial outputs behind ({e})");
+    }
     let cli = Cli::parse();
     match run(cli) {
         Ok(()) => ExitCode::SUCCESS,

@@ -1483,3 +1483,161 @@ fn methods_json_is_the_registry_with_defaults() {
         );
     }
 }
+
+/// The hidden staging folders in `dir`.
+fn staging_folders(dir: &Path) -> Vec<std::path::PathBuf> {
+    std::fs::read_dir(dir)
+        .map(|entries| {
+            entries
+                .flatten()
+                .map(|e| e.path())
+                .filter(|p| {
+                    p.file_name()
+                        .is_some_and(|n| n.to_string_lossy().starts_with(".occlux-staging-"))
+                })
+                .collect()
+        })
+        .unwrap_or_default()
+}
+
+/// Starts `occlux export SCENE -o OUT --device cpu` and, once its staging folder is there (it
+/// is writing), sends `signal`; None if the export ended first.
+fn signal_while_staging(scene: &Path, out: &Path, signal: i32) -> Option<std::process::Output> {
+    let mut child = Command::new(env!("CARGO_BIN_EXE_occlux"))
+        .args(["--quiet", "export", scene.to_str().unwrap(), "-o"])
+        .arg(out)
+        .args(["--device", "cpu"])
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    loop {
+        if child.try_wait().unwrap().is_some() {
+            return None;
+        }
+        if !staging_folders(out).is_empty() {
+            // SAFETY: kill(2) on our own child's pid.
+            unsafe { libc::kill(child.id() as i32, signal) };
+            return Some(child.wait_with_output().unwrap());
+        }
+        std::thread::sleep(std::time::Duration::from_micros(200));
+    }
+}
+
+/// The export's four files, where they are whole (its stage, the marker, is there).
+fn export_files(out: &Path) -> Option<Vec<Vec<u8>>> {
+    out.join("kill.usda").is_file().then(|| {
+        ["kill.vdb", "kill.exr", "kill.png", "kill.usda"]
+            .map(|name| std::fs::read(out.join(name)).unwrap())
+            .to_vec()
+    })
+}
+
+#[test]
+fn an_interrupted_or_killed_export_leaves_no_partial_set_and_the_next_run_cleans_up() {
+    // Issue 38: killed or interrupted during `export`, a `.occlux-staging-*` folder with partial
+    // files stayed, no rerun removed it, and a kill between the final renames left the VDB
+    // without its stage.
+    let dir = tempfile::tempdir().unwrap();
+    let scene = dir.path().join("kill.toml");
+    std::fs::write(
+        &scene,
+        "background = 0.1\n[volume]\nphantom = \"ct\"\nsize = 128\n[camera]\n\
+         position = [3, -2, 1]\ntarget = [0, 0, 0]\nwidth = 64\nheight = 64\n\
+         [[lights]]\ntype = \"ambient\"\nradiance = 1\n[render]\nmethod = \"ao\"\n",
+    )
+    .unwrap();
+    let whole = dir.path().join("whole");
+    let run = occlux(&[
+        "--quiet",
+        "export",
+        scene.to_str().unwrap(),
+        "-o",
+        whole.to_str().unwrap(),
+        "--device",
+        "cpu",
+    ]);
+    assert!(
+        run.status.success(),
+        "{}",
+        String::from_utf8_lossy(&run.stderr)
+    );
+    let reference = export_files(&whole).expect("a whole export");
+
+    // SIGTERM (and Ctrl-C's SIGINT alike) while writing: the staging folder goes, nothing half
+    // written stays, and the status says it was interrupted.
+    let interrupted = dir.path().join("interrupted");
+    let mut seen = 0;
+    for _ in 0..5 {
+        if seen == 2 {
+            break;
+        }
+        std::fs::remove_dir_all(&interrupted).ok();
+        std::fs::create_dir_all(&interrupted).unwrap();
+        let Some(ended) = signal_while_staging(&scene, &interrupted, libc::SIGTERM) else {
+            continue;
+        };
+        seen += 1;
+        let err = String::from_utf8_lossy(&ended.stderr);
+        assert!(staging_folders(&interrupted).is_empty(), "{err}");
+        match export_files(&interrupted) {
+            // The signal came as the commit ran: it finished first.
+            Some(files) => assert_eq!(files, reference),
+            None => {
+                assert_eq!(ended.status.code(), Some(130), "{err}");
+                assert!(err.contains("interrupted"), "{err}");
+                assert_eq!(std::fs::read_dir(&interrupted).unwrap().count(), 0);
+            }
+        }
+    }
+    assert!(seen > 0, "no export was caught while writing");
+
+    // SIGKILL at points spread over the writing: no handler runs, the staging folder stays;
+    // the folder holds either the whole set (stage present) or no stage, and the next export
+    // removes the left-over staging and lands the whole set.
+    let killed = dir.path().join("killed");
+    let mut left_over = 0;
+    for delay_us in [0u64, 500, 2_000, 8_000, 20_000, 50_000] {
+        std::fs::remove_dir_all(&killed).ok();
+        std::fs::create_dir_all(&killed).unwrap();
+        let mut child = Command::new(env!("CARGO_BIN_EXE_occlux"))
+            .args(["--quiet", "export", scene.to_str().unwrap(), "-o"])
+            .arg(&killed)
+            .args(["--device", "cpu"])
+            .spawn()
+            .unwrap();
+        while staging_folders(&killed).is_empty() && child.try_wait().unwrap().is_none() {
+            std::thread::sleep(std::time::Duration::from_micros(200));
+        }
+        std::thread::sleep(std::time::Duration::from_micros(delay_us));
+        child.kill().unwrap();
+        child.wait().unwrap();
+        if let Some(files) = export_files(&killed) {
+            assert_eq!(
+                files, reference,
+                "a stage beside a partial set, {delay_us} us"
+            );
+        }
+        left_over += staging_folders(&killed).len();
+        let rerun = occlux(&[
+            "--quiet",
+            "export",
+            scene.to_str().unwrap(),
+            "-o",
+            killed.to_str().unwrap(),
+            "--device",
+            "cpu",
+        ]);
+        assert!(
+            rerun.status.success(),
+            "{}",
+            String::from_utf8_lossy(&rerun.stderr)
+        );
+        assert!(staging_folders(&killed).is_empty(), "{delay_us} us");
+        assert_eq!(
+            export_files(&killed).as_ref(),
+            Some(&reference),
+            "{delay_us} us"
+        );
+    }
+    assert!(left_over > 0, "no kill left a staging folder to clean up");
+}

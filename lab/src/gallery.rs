@@ -137,7 +137,7 @@ pub fn run(args: &GalleryArgs, quiet: bool) -> Result<()> {
         truth_spp: args.spp,
         groups: &groups,
     };
-    super::write_report(&set.path("gallery.json")?, &report, true)?;
+    super::write_report(&set.marker("gallery.json")?, &report, true)?;
     crate::term::report_written(&set.commit()?, quiet);
     Ok(())
 }

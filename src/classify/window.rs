@@ -312,8 +312,9 @@ fn quantile(sorted: &[f32], q: f64) -> f32 {
     let rank = q * (sorted.len() - 1) as f64;
     let i = rank.floor() as usize;
     let j = (i + 1).min(sorted.len() - 1);
-    let t = (rank - i as f64) as f32;
-    sorted[i] + (sorted[j] - sorted[i]) * t
+    // In f64: two finite f32 values may lie further apart than an f32 holds.
+    let t = rank - i as f64;
+    (sorted[i] as f64 + (sorted[j] as f64 - sorted[i] as f64) * t) as f32
 }
 
 #[cfg(test)]

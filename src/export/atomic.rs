@@ -42,29 +42,106 @@ pub fn check_writable(out_dir: &Path) -> Result<()> {
         .map_err(|e| Error::io(out_dir, e))
 }
 
+/// Prefix of a set's hidden staging folder inside its output folder.
+const STAGING_PREFIX: &str = ".occlux-staging-";
+
+/// The file in a staging folder that its process holds locked for as long as the set lives.
+/// The system drops the lock when the process ends, however it ends (SIGKILL included), so a
+/// later run that can take the lock knows the folder is left over, even if the process id has
+/// been reused since.
+const OWNER_LOCK: &str = ".owner";
+
+/// A staging folder without its lock file is left over only once it is older than this: its
+/// process may be between making the folder and the lock.
+const UNLOCKED_GRACE: std::time::Duration = std::time::Duration::from_secs(60);
+
+/// The staging folders of this process's live sets, for [`remove_live_staging`].
+static LIVE_STAGING: std::sync::Mutex<Vec<PathBuf>> = std::sync::Mutex::new(Vec::new());
+
+fn live_staging() -> std::sync::MutexGuard<'static, Vec<PathBuf>> {
+    // A panic elsewhere while the list was held leaves it usable.
+    LIVE_STAGING.lock().unwrap_or_else(|e| e.into_inner())
+}
+
+/// Removes the staging folders of every set of this process that is not committed yet: what
+/// a program calls when it is interrupted (SIGINT, SIGTERM) before it exits, so no partial
+/// files stay. A set being committed finishes first (the commit holds the same lock), so an
+/// interrupted commit never leaves half a set in place.
+pub fn remove_live_staging() {
+    let mut live = live_staging();
+    for staging in live.drain(..) {
+        let _ = std::fs::remove_dir_all(&staging);
+    }
+}
+
+/// Removes the staging folders in `out_dir` that no live process owns: those of runs that
+/// were killed (or lost power) before they could clean up. Best effort: what cannot be
+/// removed stays for the next run, and never stops this one.
+fn remove_stale_staging(out_dir: &Path) {
+    let Ok(entries) = std::fs::read_dir(out_dir) else {
+        return;
+    };
+    for entry in entries.flatten() {
+        let name = entry.file_name();
+        if !name.to_string_lossy().starts_with(STAGING_PREFIX) || !entry.path().is_dir() {
+            continue;
+        }
+        let folder = entry.path();
+        let stale = match File::open(folder.join(OWNER_LOCK)) {
+            Ok(lock) => lock.try_lock().is_ok(),
+            Err(_) => entry
+                .metadata()
+                .and_then(|m| m.modified())
+                .ok()
+                .and_then(|t| t.elapsed().ok())
+                .is_some_and(|age| age > UNLOCKED_GRACE),
+        };
+        if stale {
+            let _ = std::fs::remove_dir_all(&folder);
+        }
+    }
+}
+
 /// Files written together into one folder: each is written into a hidden staging folder inside
 /// it, and [`OutputSet::commit`] moves them all into place once every one is complete. Dropped
 /// without a commit (an error on the way), the staging folder and all in it are removed, and
-/// the folder holds what it held before.
+/// the folder holds what it held before; a process killed on the way leaves the staging folder,
+/// which the next set made in that folder removes.
+///
+/// A set may name one file its **marker** ([`OutputSet::marker`]: an export's USD stage, an AO
+/// volume's JSON record): the commit removes the marker's old version before it moves anything
+/// and moves the new one last, so a reader that finds the marker finds the whole set, and a
+/// folder without it holds an incomplete one.
 pub struct OutputSet {
     staging: tempfile::TempDir,
+    /// Held locked while the set lives (see [`OWNER_LOCK`]).
+    _owner: File,
     out_dir: PathBuf,
     names: Vec<String>,
+    marker: Option<String>,
 }
 
 impl OutputSet {
     /// Creates `out_dir` if needed and the staging folder in it: this fails, naming the folder,
-    /// when it cannot be written, so callers make the set before computing anything.
+    /// when it cannot be written, so callers make the set before computing anything. Staging
+    /// folders that killed runs left in `out_dir` are removed first.
     pub fn new(out_dir: &Path) -> Result<Self> {
         std::fs::create_dir_all(out_dir).map_err(|e| Error::io(out_dir, e))?;
+        remove_stale_staging(out_dir);
         let staging = tempfile::Builder::new()
-            .prefix(".occlux-staging-")
+            .prefix(STAGING_PREFIX)
             .tempdir_in(out_dir)
             .map_err(|e| Error::io(out_dir, e))?;
+        let lock_path = staging.path().join(OWNER_LOCK);
+        let owner = File::create(&lock_path).map_err(|e| Error::io(&lock_path, e))?;
+        owner.lock().map_err(|e| Error::io(&lock_path, e))?;
+        live_staging().push(staging.path().to_path_buf());
         Ok(Self {
             staging,
+            _owner: owner,
             out_dir: out_dir.to_path_buf(),
             names: Vec::new(),
+            marker: None,
         })
     }
 
@@ -84,16 +161,43 @@ impl OutputSet {
         Ok(self.staging.path().join(name))
     }
 
+    /// As [`OutputSet::path`], for the set's marker: the file that says the set is whole.
+    pub fn marker(&mut self, name: &str) -> Result<PathBuf> {
+        let path = self.path(name)?;
+        self.names.pop();
+        self.marker = Some(name.to_owned());
+        Ok(path)
+    }
+
     /// Moves every file into `out_dir` (renames within one folder: they do not fail for want
-    /// of space) and returns their final paths.
+    /// of space), the marker last, and returns their final paths in the order they were asked
+    /// for, the marker last.
     pub fn commit(self) -> Result<Vec<PathBuf>> {
-        let mut written = Vec::with_capacity(self.names.len());
-        for name in &self.names {
+        // Not interrupted half way: a signal handler's removal waits for this lock.
+        let mut live = live_staging();
+        if let Some(marker) = &self.marker {
+            match std::fs::remove_file(self.out_dir.join(marker)) {
+                Err(e) if e.kind() != std::io::ErrorKind::NotFound => {
+                    return Err(Error::io(self.out_dir.join(marker), e));
+                }
+                _ => {}
+            }
+        }
+        let mut written = Vec::with_capacity(self.names.len() + 1);
+        for name in self.names.iter().chain(&self.marker) {
             let (from, to) = (self.staging.path().join(name), self.out_dir.join(name));
             std::fs::rename(&from, &to).map_err(|e| Error::io(&to, e))?;
             written.push(to);
         }
+        live.retain(|p| p != self.staging.path());
         Ok(written)
+    }
+}
+
+impl Drop for OutputSet {
+    fn drop(&mut self) {
+        // The TempDir removes the folder itself; it is no longer this process's to clean up.
+        live_staging().retain(|p| p != self.staging.path());
     }
 }
 
@@ -195,6 +299,33 @@ mod tests {
             .map(|e| e.unwrap().file_name())
             .collect();
         assert_eq!(names.len(), 2, "{names:?}");
+    }
+
+    #[test]
+    fn a_new_set_removes_staging_that_no_live_process_owns_and_commits_its_marker_last() {
+        let dir = tempfile::tempdir().unwrap();
+        let out = dir.path();
+        // Left by a killed run: its lock file is there, and nobody holds it.
+        let dead = out.join(".occlux-staging-dead");
+        std::fs::create_dir(&dead).unwrap();
+        std::fs::write(dead.join(OWNER_LOCK), b"").unwrap();
+        std::fs::write(dead.join("engine.vdb"), b"half").unwrap();
+        // Owned by a live set (this process's: a second open file cannot take its lock).
+        let live = OutputSet::new(out).unwrap();
+        // Just made, its lock not yet there: left alone for UNLOCKED_GRACE.
+        let young = out.join(".occlux-staging-young");
+        std::fs::create_dir(&young).unwrap();
+        let mut set = OutputSet::new(out).unwrap();
+        assert!(!dead.exists());
+        assert!(live.staging.path().is_dir() && young.is_dir());
+        write_bytes_atomic(&set.marker("a.json").unwrap(), b"marker").unwrap();
+        write_bytes_atomic(&set.path("a.vdb").unwrap(), b"grid").unwrap();
+        let written = set.commit().unwrap();
+        assert_eq!(written, [out.join("a.vdb"), out.join("a.json")]);
+        assert_eq!(std::fs::read(out.join("a.json")).unwrap(), b"marker");
+        // (remove_live_staging, what a signal runs, would also take the staging of the other
+        // tests of this process: the command line's interrupt test checks it.)
+        drop(live);
     }
 
     #[test]

@@ -80,7 +80,7 @@ fn mib(bytes: u64) -> f64 {
 /// Waits for submitted work, then copies `buffer` (a storage buffer) back as values of `T`.
 pub fn read_buffer<T: Pod>(ctx: &GpuContext, buffer: &wgpu::Buffer) -> Result<Vec<T>> {
     let size = buffer.size();
-    if size % std::mem::size_of::<T>() as u64 != 0 {
+    if !size.is_multiple_of(std::mem::size_of::<T>() as u64) {
         return Err(Error::Gpu(format!(
             "buffer of {size} bytes is not a whole number of {}-byte values",
             std::mem::size_of::<T>()

@@ -53,7 +53,7 @@ impl Statistics {
             return None;
         }
         let fine = histogram(values, min, max, FINE_BINS, replaced);
-        let width = (max - min) as f64 / FINE_BINS as f64;
+        let width = (max as f64 - min as f64) / FINE_BINS as f64;
         let percentiles = PERCENTILES
             .iter()
             .map(|&p| {
@@ -83,13 +83,15 @@ impl Statistics {
 }
 
 /// Counts of `values` in `bins` equal bins over [lo, hi], less `replaced` zeros.
+/// In f64: finite f32 values near +-3.4e38 span more than an f32 holds.
 fn histogram(values: &[f32], lo: f32, hi: f32, bins: usize, replaced: usize) -> Vec<u64> {
+    let (lo, hi) = (lo as f64, hi as f64);
     let scale = if hi > lo {
-        bins as f32 / (hi - lo)
+        bins as f64 / (hi - lo)
     } else {
         0.0
     };
-    let bin = |v: f32| (((v - lo) * scale).max(0.0) as usize).min(bins - 1);
+    let bin = |v: f32| (((v as f64 - lo) * scale).max(0.0) as usize).min(bins - 1);
     let mut counts = vec![0u64; bins];
     for &v in values {
         counts[bin(v)] += 1;
@@ -122,12 +124,21 @@ fn whereabouts(census: &NonFiniteVoxels, dims: [usize; 3]) -> String {
 
 /// `v` to the decimals that a bin of `width` resolves (percentiles are read within a fine
 /// bin, so further digits say nothing).
-fn to_bin(v: f32, width: f32) -> String {
+fn to_bin(v: f32, width: f64) -> String {
     if width.is_nan() || width <= 0.0 {
         return v.to_string();
     }
     let decimals = (-width.log10().floor()).max(0.0) as usize;
     format!("{v:.decimals$}")
+}
+
+/// A histogram bin's edge: four decimals, in scientific notation when that would be long.
+fn bin_edge(v: f64) -> String {
+    if v.abs() < 1e8 {
+        format!("{v:.4}")
+    } else {
+        format!("{v:.4e}")
+    }
 }
 
 /// Loads `file` (the first frame of a time series) and describes it, line by line, as `occlux
@@ -198,7 +209,8 @@ pub fn describe(file: &Path, options: &LoadOptions, suggest: bool) -> Result<Str
     if let Some(report) = &report {
         emit!("window    {report}: presets' normalised 0..1");
     }
-    let fine_width = (stats.max - stats.min) / FINE_BINS as f32;
+    // Widths and bin edges in f64: the range of finite f32 values may exceed f32's.
+    let fine_width = (stats.max as f64 - stats.min as f64) / FINE_BINS as f64;
     let percentiles: Vec<String> = PERCENTILES
         .iter()
         .zip(&stats.percentiles)
@@ -209,14 +221,14 @@ pub fn describe(file: &Path, options: &LoadOptions, suggest: bool) -> Result<Str
         "histogram ({BINS} bins over the value range; bars grow with log10 of the count, so one \
          voxel shows)"
     );
-    let width = (stats.max - stats.min) / BINS as f32;
+    let width = (stats.max as f64 - stats.min as f64) / BINS as f64;
     let scale = 40.0 / (stats.count as f64 + 1.0).log10();
     for (b, &count) in stats.histogram.iter().enumerate() {
         let bar = ((count as f64 + 1.0).log10() * scale).ceil() as usize;
         emit!(
-            "  {:>12.4} .. {:<12.4} {count:>11} {:7.3}% {}",
-            stats.min + b as f32 * width,
-            stats.min + (b + 1) as f32 * width,
+            "  {:>12} .. {:<12} {count:>11} {:7.3}% {}",
+            bin_edge(stats.min as f64 + b as f64 * width),
+            bin_edge(stats.min as f64 + (b + 1) as f64 * width),
             count as f64 / stats.count as f64 * 100.0,
             "#".repeat(bar)
         );
@@ -240,8 +252,10 @@ pub fn describe(file: &Path, options: &LoadOptions, suggest: bool) -> Result<Str
 /// translucent middle and dense at the window's top, in the volume's own values.
 fn suggestion(report: &WindowReport) -> String {
     let w = report.window;
-    let clear = (report.background.max(w.lo) + 0.15 * (w.hi - w.lo)).min(w.raw(0.6));
-    let middle = 0.5 * (clear + w.hi);
+    // In f64, as the statistics: a window may span more than an f32 holds.
+    let (lo, hi) = (w.lo as f64, w.hi as f64);
+    let clear = ((report.background as f64).max(lo) + 0.15 * (hi - lo)).min(lo + 0.6 * (hi - lo));
+    let (clear, middle) = (clear as f32, (0.5 * (clear + hi)) as f32);
     let mut text = format!(
         "# paste into a scene: a ramp on this file's values (robust window {w})\n\
          [classification]\nunits = \"raw\"\npoints = [\n\
@@ -264,6 +278,30 @@ fn suggestion(report: &WindowReport) -> String {
 mod tests {
     use super::*;
     use glam::Vec3;
+
+    #[test]
+    fn values_near_the_f32_limit_give_finite_quantiles_and_a_full_histogram() {
+        // Issue 38: max - min overflowed f32 (inf), the quantiles were NaN and the histogram
+        // put every voxel in the first bin.
+        let mut values = vec![0.0f32; 998];
+        values.extend([-3e38, 3e38]);
+        let volume = Volume::new([1000, 1, 1], Vec3::ONE, Vec3::ZERO, values).unwrap();
+        let stats = Statistics::of(&volume, 0).unwrap();
+        assert_eq!((stats.min, stats.max), (-3e38, 3e38));
+        assert!(
+            stats.percentiles.iter().all(|p| p.is_finite()),
+            "{:?}",
+            stats.percentiles
+        );
+        let p50 = stats.percentiles[PERCENTILES.iter().position(|&x| x == 50.0).unwrap()];
+        // Within a fine bin of 0: 6e38 / 65536 wide.
+        assert!(p50.abs() <= 1e34, "{p50}");
+        assert_eq!(stats.histogram[0], 1);
+        assert_eq!(stats.histogram[BINS / 2], 998);
+        assert_eq!(*stats.histogram.last().unwrap(), 1);
+        assert_eq!(bin_edge(-3e38), "-3.0000e38");
+        assert_eq!(bin_edge(12.5), "12.5000");
+    }
 
     #[test]
     fn percentiles_and_bins_skip_the_replaced_voxels_and_keep_an_outlier() {

@@ -312,7 +312,7 @@ impl ZMean {
             }
         };
         let k = k as isize;
-        if k as usize % w == 0 {
+        if (k as usize).is_multiple_of(w) {
             offset.copy_from_slice(element(k));
             acc.fill(0.0);
             for j in k - r..=k + r {
@@ -366,7 +366,7 @@ impl ZExtreme {
 
     fn feed(&mut self, s: usize, slice: &mut Vec<f32>) {
         let (w, op) = (2 * self.radius + 1, self.op);
-        if s % w == 0 {
+        if s.is_multiple_of(w) {
             self.prefix.copy_from_slice(slice);
         } else {
             for (p, x) in self.prefix.iter_mut().zip(slice.iter()) {
