@@ -1,5 +1,6 @@
 #!/usr/bin/env bash
-# Coverage-guided fuzzing of the loaders and the scene parser (libFuzzer through cargo-fuzz).
+# Coverage-guided fuzzing of the loaders, the scene parser and what a scene runs through after
+# it (settling, the writers, the renderers) with libFuzzer through cargo-fuzz.
 #
 #   bash fuzz/run.sh --seconds 60         every target for 60 s (what CI runs)
 #   bash fuzz/run.sh --runs 1000000 nrrd  one target for a million executions
@@ -21,7 +22,7 @@ case "${1:-}" in
   --build-only) build_only=true; shift ;;
 esac
 targets=("$@")
-[ ${#targets[@]} -gt 0 ] || targets=(nrrd nifti npy raw vdb scene)
+[ ${#targets[@]} -gt 0 ] || targets=(nrrd nifti npy raw vdb scene settle roundtrip render)
 command -v cargo-fuzz >/dev/null || cargo install cargo-fuzz --locked --version 0.13.2
 for target in "${targets[@]}"; do
   cargo fuzz build --sanitizer none -O "$target"

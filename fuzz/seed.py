@@ -6,14 +6,18 @@ Each shared NRRD gives a small valid NRRD with its own header fields (its sizes 
 16 x 8 x 4 block of its first voxels, gzip as it was, raw beside it), the start of the real file
 (a truncated one), and the same block as NIfTI (sform axis-aligned, permuted and oblique; plain
 and gzipped), NumPy, raw (with the raw target's 12-byte layout prefix) and VDB (written by
-`occlux export`, plain and half floats). The scene target gets the example scenes. Only the
-standard library is used.
+`occlux export`, plain and half floats). The scene target gets the example scenes, the settle
+target the same behind the byte that picks its phantom. The roundtrip and render targets read
+their inputs as a stream of choices, the longer the larger their grids and the more of their
+parameters they set: they get a few streams of fixed pseudo-random bytes of growing length.
+Only the standard library is used.
 """
 
 from __future__ import annotations
 
 import gzip
 import math
+import random
 import re
 import struct
 import subprocess
@@ -96,7 +100,8 @@ def npy(descr: str, data: bytes) -> bytes:
 def main() -> None:
     occlux, out = Path(sys.argv[1]), Path(sys.argv[2])
     shared = Path(sys.argv[3]) if len(sys.argv) > 3 else Path(__file__).parents[2] / "shared"
-    folders = {name: out / name for name in ("nrrd", "nifti", "npy", "raw", "vdb", "scene")}
+    targets = ("nrrd", "nifti", "npy", "raw", "vdb", "scene", "settle", "roundtrip", "render")
+    folders = {name: out / name for name in targets}
     for folder in folders.values():
         folder.mkdir(parents=True, exist_ok=True)
     angle = math.radians(20)
@@ -144,9 +149,18 @@ def main() -> None:
                 for vdb in target.glob("*.vdb"):
                     seed = folders["vdb"] / f"{stem}-{vdb.stem}{suffix}.vdb"
                     seed.write_bytes(vdb.read_bytes())
-    for example in sorted((Path(__file__).parents[1] / "examples").glob("*.toml")):
+    examples = sorted((Path(__file__).parents[1] / "examples").glob("*.toml"))
+    for pick, example in enumerate(examples):
         text = re.sub(r"\n\s*\n", "\n", example.read_text())
         (folders["scene"] / example.name).write_text(text)
+        # The settle target's first byte b picks phantom b % 7 at side 8 + (b // 7) % 9: spread
+        # over the examples, so that each phantom and several sides come up.
+        first = bytes([pick * 37 % 256])
+        (folders["settle"] / example.name).write_bytes(first + text.encode())
+    stream = random.Random(20240601)
+    for length in (256, 1024, 4096, 16384):
+        for name in ("roundtrip", "render"):
+            (folders[name] / f"random-{length}").write_bytes(stream.randbytes(length))
     for name, folder in folders.items():
         print(f"{name}: {len(list(folder.iterdir()))} seeds")
 

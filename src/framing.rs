@@ -83,10 +83,59 @@ pub fn settle(scene: &Scene, mut volume: Volume, hounsfield: Option<&str>) -> Re
             100.0 * framing.margin
         ));
     }
+    check_step(&scene, &volume)?;
+    notices.extend(view_notice(&scene.camera, &volume));
     Ok(Loaded {
         scene,
         volume,
         notices,
+    })
+}
+
+/// Refuses a ray-marching step longer than the volume's diagonal: every ray would take at
+/// most one sample of the whole crossing (`step = 1e9` rendered one sample per ray, and too
+/// bright, without a word).
+fn check_step(scene: &Scene, volume: &Volume) -> Result<()> {
+    let (lo, hi) = volume.bounds();
+    let diagonal = (hi - lo).length();
+    match scene.method.step() {
+        Some(step) if step > diagonal => Err(Error::param(
+            "render.step",
+            format!(
+                "{step} is longer than the volume's diagonal ({diagonal}): a ray would take at \
+                 most one sample; leave it out for half a voxel ({})",
+                0.5 * volume.spacing().min_element()
+            ),
+        )),
+        _ => Ok(()),
+    }
+}
+
+/// Most view rays tried for [`view_notice`]: every pixel's up to about a megapixel, a grid
+/// of them beyond (a volume narrower than that grid's spacing is then missed, and noticed).
+const VIEW_RAYS: u64 = 1 << 20;
+
+/// A notice when no pixel's ray meets the volume's box: the image would be the background
+/// alone (a camera looking away, a `fit` of 1e-30), which rendered with no word.
+fn view_notice(camera: &crate::camera::Camera, volume: &Volume) -> Option<String> {
+    let (lo, hi) = volume.bounds();
+    let pixels = camera.width as u64 * camera.height as u64;
+    let stride = ((pixels as f64 / VIEW_RAYS as f64).sqrt().ceil() as u32).max(1);
+    let rows = (0..camera.height).step_by(stride as usize);
+    let seen = rows.into_iter().any(|y| {
+        (0..camera.width)
+            .step_by(stride as usize)
+            .any(|x| crate::camera::intersect_box(&camera.ray(x, y), lo, hi).is_some())
+    });
+    (!seen).then(|| {
+        format!(
+            "camera: no pixel sees the volume's box {} .. {} from {} looking along {}: the image \
+             will be the background alone (check camera.position and target, or volume.fit)",
+            fmt_vec(lo),
+            fmt_vec(hi),
+            fmt_vec(camera.position),
+            fmt_vec(camera.forward)
+        )
     })
 }
 

@@ -143,6 +143,15 @@ impl Method {
     pub fn to_json(&self) -> Value {
         crate::json::tree(self)
     }
+
+    /// The ray-marching step the scene set (`render.step`, the same key and meaning in every
+    /// method that takes one), None when it is left to its default or the method has none.
+    pub fn step(&self) -> Option<f32> {
+        self.to_json()
+            .get("step")
+            .and_then(Value::as_f64)
+            .map(|step| step as f32)
+    }
 }
 
 /// The registered method names.

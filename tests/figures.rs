@@ -478,3 +478,46 @@ fn a_value_range_wider_than_f32_is_refused_where_the_table_would_span_it() {
         other => panic!("{other:?}"),
     }
 }
+
+/// Issue 38: a camera looking away, or a volume fitted to 1e-30 units, rendered a blank image
+/// with no word, and `step = 1e9` rendered one sample per ray; now a notice names the view, and
+/// the step is refused.
+#[test]
+fn a_view_that_misses_the_volume_is_noticed_and_a_step_past_it_refused() {
+    let scene = |extra: &str, camera: &str| {
+        Scene::parse(
+            &format!(
+                "[volume]\nphantom = \"sphere\"\nsize = 8\n{extra}\n[camera]\n{camera}\n\
+                 width = 16\nheight = 16\n"
+            ),
+            Path::new("."),
+        )
+        .unwrap()
+    };
+    let towards = "position = [0, -4, 0]\ntarget = [0, 0, 0]";
+    let missed = |loaded: &occlux::scene::Loaded| {
+        loaded
+            .notices
+            .iter()
+            .any(|n| n.contains("no pixel sees the volume"))
+    };
+    assert!(!missed(&scene("", towards).load().unwrap()));
+    let away = scene("", "position = [0, -4, 0]\ntarget = [0, -8, 0]");
+    assert!(missed(&away.load().unwrap()));
+    let tiny = scene("fit = 1e-30", towards);
+    assert!(missed(&tiny.load().unwrap()));
+    let err = scene("[render]\nmethod = \"unshaded\"\nstep = 1e9", towards)
+        .load()
+        .err()
+        .expect("refused")
+        .to_string();
+    assert!(
+        err.contains("render.step") && err.contains("diagonal"),
+        "{err}"
+    );
+    assert!(
+        scene("[render]\nmethod = \"unshaded\"\nstep = 0.5", towards)
+            .load()
+            .is_ok()
+    );
+}

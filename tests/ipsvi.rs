@@ -609,13 +609,24 @@ fn line_width_and_early_termination_keep_the_image_and_any_cache_size_is_finite(
         );
     }
     // One texel: every sample's light is that of the single cache ray through the middle of the
-    // volume's projection. Wrong by design, but finite (`error` checks) and stated.
+    // volume's projection. Wrong by design, but finite (`error` checks) and bounded: the light
+    // of one or four texels is still light that crossed the volume, never more than the sun's
+    // (measured 0.65 and 1.01). Far from the default, or the size was not used at all.
     for size in [1, 2] {
         let (excess, bias, _) = case.error(&IpsviParams {
             cache_size: Some(size),
             ..IpsviParams::default()
         });
         println!("cache {size}: error {excess:.4} bias {bias:+.4}");
+        assert!(excess.is_finite() && bias.is_finite(), "cache {size}");
+        assert!(
+            excess > 10.0 * base,
+            "cache {size}: {excess} against {base}"
+        );
+        assert!(
+            excess < 3.0 && bias.abs() < 2.0,
+            "cache {size}: {excess}, bias {bias}"
+        );
     }
 }
 

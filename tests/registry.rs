@@ -76,7 +76,7 @@ fn companions(key: &str) -> Value {
     match key {
         // VAO's keys (the default AO method, the discrete ordinates, computes the visibility).
         "variance_max" => json!({ "opacity_modulation": true, "ao_method": "cdf" }),
-        "ao_field" | "ao_variance" | "opacity_modulation" | "ao_convention" => {
+        "ao_radius" | "ao_field" | "ao_variance" | "opacity_modulation" | "ao_convention" => {
             json!({ "ao_method": "cdf" })
         }
         "ao_iso" | "ao_gamma" | "ao_alpha" | "ao_light" => json!({ "ao_method": "sweep" }),

@@ -111,6 +111,41 @@ fn ao_volumes_by_sweep_refuse_what_they_cannot_compute() {
             },
             "convention",
         ),
+        // Issue 38: another method's parameters were ignored without a word.
+        (
+            AoVolumeParams {
+                iso: Some(5.0),
+                ..base
+            },
+            "iso",
+        ),
+        (AoVolumeParams { radius: 3, ..base }, "radius"),
+        (
+            AoVolumeParams {
+                directions: 128,
+                ..base
+            },
+            "directions",
+        ),
+        (
+            AoVolumeParams {
+                method: AoMethod::Vao(occlux::ao::vao::Estimator::Cdf),
+                iso: Some(5.0),
+                ..base
+            },
+            "iso",
+        ),
+        (
+            AoVolumeParams {
+                method: AoMethod::Ordinates,
+                geometric: occlux::ao::sweep::geometric::GeometricParams {
+                    gamma: 1.0,
+                    ..Default::default()
+                },
+                ..base
+            },
+            "gamma",
+        ),
     ] {
         let err = ao_volume(
             &Compute::Cpu,

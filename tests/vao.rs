@@ -444,11 +444,16 @@ fn opaque() -> occlux::classify::Classification {
 /// The `ao` grid `occlux ao` writes for `volume` classified by [`opaque`], read back from the
 /// VDB file.
 fn written_ao(volume: &Volume, method: &str, convention: &str) -> Volume {
-    use occlux::ao::{ao_volume, AoVolumeParams};
+    use occlux::ao::{ao_volume, AoMethod, AoVolumeParams};
     use occlux::export::vdb::VdbOptions;
+    let parsed = method.parse().unwrap();
     let params = AoVolumeParams {
-        method: method.parse().unwrap(),
-        radius: 4,
+        method: parsed,
+        // A radius for VAO's estimators; the sweeps and ordinates reach the whole volume.
+        radius: match parsed {
+            AoMethod::Vao(_) => 4,
+            _ => AoVolumeParams::default().radius,
+        },
         convention: convention.parse().unwrap(),
         ..Default::default()
     };

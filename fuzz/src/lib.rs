@@ -12,18 +12,22 @@ pub const BUDGET: u64 = 64 << 20;
 /// A file of this process named `input.<extension>` holding `data`, in memory where the
 /// system has a RAM disk (a disk write per input would bound the executions per second).
 pub fn file_with(extension: &str, data: &[u8]) -> PathBuf {
-    let shm = std::path::Path::new("/dev/shm");
-    let folder = if shm.is_dir() {
-        shm.to_path_buf()
-    } else {
-        std::env::temp_dir()
-    };
-    let path = folder.join(format!(
+    let path = scratch().join(format!(
         "occlux-fuzz-{}-input.{extension}",
         std::process::id()
     ));
     std::fs::write(&path, data).expect("the fuzz input file can be written");
     path
+}
+
+/// Where inputs and outputs are written: in memory where the system has a RAM disk.
+pub fn scratch() -> PathBuf {
+    let shm = std::path::Path::new("/dev/shm");
+    if shm.is_dir() {
+        shm.to_path_buf()
+    } else {
+        std::env::temp_dir()
+    }
 }
 
 /// Loads `data` as a file with `extension`; a volume that loads must be consistent.
@@ -54,4 +58,10 @@ pub fn check(volume: &Volume) {
 /// wrapper treats them as crashes.
 pub fn quiet_caught_panics() {
     std::panic::set_hook(Box::new(|_| {}));
+}
+
+/// Rayon on one thread: the settle and render targets' volumes are a few thousand voxels, too
+/// small for threads to pay for themselves, and libFuzzer runs one process per core anyway.
+pub fn one_thread() {
+    std::env::set_var("RAYON_NUM_THREADS", "1");
 }

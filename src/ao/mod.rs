@@ -233,6 +233,7 @@ impl AoVolumeParams {
     }
 
     pub fn validate(&self) -> Result<()> {
+        self.refuse_foreign()?;
         if let Some(vao) = self.vao() {
             return vao.validate();
         }
@@ -282,6 +283,43 @@ impl AoVolumeParams {
             }
         }
         self.geometric.validate()
+    }
+
+    /// Refuses a parameter that only another method reads, rather than ignoring it (`--method
+    /// cdf --iso 5` computed VAO as if no iso-surface were given): each is either left at its
+    /// default or given to a method that reads it.
+    fn refuse_foreign(&self) -> Result<()> {
+        let defaults = Self::default();
+        let foreign = [
+            (
+                "iso",
+                self.iso.is_some() && self.method != AoMethod::Sweep,
+                "only the geometric sweep (method sweep) reads an iso-surface",
+            ),
+            (
+                "gamma, alpha, octant intensities, combined",
+                self.geometric != defaults.geometric && self.method != AoMethod::Sweep,
+                "only the geometric sweep (method sweep) shades with them",
+            ),
+            (
+                "directions",
+                self.directions != defaults.directions && self.method != AoMethod::Ordinates,
+                "only the discrete ordinates (method ordinates) take directions",
+            ),
+            (
+                "radius",
+                self.radius != defaults.radius && self.vao().is_none(),
+                "only VAO's estimators (cdf, gauss, ...) take a radius; the sweeps reach the whole \
+                 volume",
+            ),
+        ];
+        match foreign.into_iter().find(|(_, given, _)| *given) {
+            Some((key, _, why)) => Err(Error::param(
+                key,
+                format!("{why}; method {} would ignore it", self.method.name()),
+            )),
+            None => Ok(()),
+        }
     }
 
     /// The field the geometric sweep measures distances on, and its signed distance's

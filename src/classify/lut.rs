@@ -133,7 +133,11 @@ impl Lut {
     /// Continuous table coordinate along an axis of `n` entries for `x` in [lo, hi].
     #[inline]
     fn coord(x: f32, lo: f32, hi: f32, n: usize) -> (usize, usize, f32) {
-        let u = ((x - lo) / (hi - lo) * (n - 1) as f32).clamp(0.0, (n - 1) as f32);
+        // `max` and `min` rather than `clamp`: they return the number where the quotient is NaN
+        // (an infinite gradient over an infinite maximum), which `clamp` passes through.
+        let u = ((x - lo) / (hi - lo) * (n - 1) as f32)
+            .max(0.0)
+            .min((n - 1) as f32);
         // u >= 0, so truncation is the floor.
         let i0 = u as usize;
         let i1 = (i0 + 1).min(n - 1);

@@ -287,10 +287,19 @@ impl<'a> Medium<'a> {
     }
 }
 
+/// Most tentative collisions [`spend`] takes in one segment. A tracked medium's majorant
+/// optical depth across the whole box is at most [`MAX_TRACKED_DEPTH`] ([`Medium::tracking`]
+/// refuses more), so a segment's count is Poisson with a mean at most that, and four times it
+/// is never reached by chance: the cap changes no accepted estimate. It bounds the walks that
+/// would not end: a majorant so large that the free paths are too short for f32 to move `t`
+/// (which had the Monte Carlo loop spin forever).
+const MAX_EVENTS_PER_SEGMENT: u32 = 4 * MAX_TRACKED_DEPTH as u32;
+
 /// Spends the free path `left` (in the majorants' optical depth) over [ta, tb] of majorant
 /// `majorant`: `event(t, majorant, rng)` at each tentative collision inside, a new free path
 /// after each, until `event` returns true (then true) or the segment ends (false, `left` holding
-/// what is still to go).
+/// what is still to go). Each collision moves `t` on by at least one f32 step, and a segment
+/// takes at most [`MAX_EVENTS_PER_SEGMENT`] of them (the rest of it is then passed).
 #[inline]
 fn spend<R: Rng>(
     left: &mut f32,
@@ -304,19 +313,21 @@ fn spend<R: Rng>(
         return false;
     }
     let mut ta = ta;
-    loop {
+    for _ in 0..MAX_EVENTS_PER_SEGMENT {
         let span = (tb - ta) * majorant;
         if *left >= span {
             *left -= span;
             return false;
         }
-        let t = ta + *left / majorant;
+        let t = (ta + *left / majorant).max(ta.next_up());
         if event(t, majorant, rng) {
             return true;
         }
         *left = free_path(1.0, rng);
         ta = t;
     }
+    *left = free_path(1.0, rng);
+    false
 }
 
 /// A free path of the majorant medium: exponential with rate `majorant`.
@@ -324,4 +335,33 @@ fn spend<R: Rng>(
 fn free_path(majorant: f32, rng: &mut impl Rng) -> f32 {
     // 1 - u lies in (0, 1], so the logarithm is finite.
     -(1.0 - rng.random::<f32>()).ln() / majorant
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rand::SeedableRng;
+
+    #[test]
+    fn a_walk_through_a_majorant_too_large_for_f32_steps_ends() {
+        // Free paths of ~1e-30 cannot move t = 1000 (its f32 step is 6e-5): before the cap and
+        // the forced step, this loop never ended.
+        let mut rng = rand_pcg::Pcg32::seed_from_u64(1);
+        let mut left = free_path(1.0, &mut rng);
+        let mut events = 0u64;
+        let stopped = spend(&mut left, 1000.0, 1001.0, 1e30, &mut rng, |t, _, _| {
+            assert!((1000.0..=1001.0).contains(&t));
+            events += 1;
+            false
+        });
+        assert!(!stopped);
+        assert!(events <= MAX_EVENTS_PER_SEGMENT as u64, "{events}");
+        // An ordinary segment is untouched: its events are those of the majorant depth.
+        let (mut left, mut events) = (free_path(1.0, &mut rng), 0u32);
+        spend(&mut left, 0.0, 1000.0, 1.0, &mut rng, |_, _, _| {
+            events += 1;
+            false
+        });
+        assert!((850..1150).contains(&events), "{events}");
+    }
 }

@@ -204,32 +204,36 @@ impl Volume {
     /// Largest gradient magnitude over the voxel centres (normalises 2D transfer functions and
     /// the gradient-shading threshold). Computed once; at a centre, `gradient`'s samples one
     /// voxel away are the neighbouring voxels (clamped at the faces), so it reads them directly.
+    /// Squared lengths are summed in f64: values near 1e30 (finite) have gradients whose square
+    /// overflows f32, and an infinite maximum made 2D tables divide infinity by infinity.
     pub fn max_gradient_magnitude(&self) -> f32 {
         *self.max_gradient.get_or_init(|| {
             use rayon::prelude::*;
             let [nx, ny, nz] = self.dims;
-            let inv = 0.5 / self.spacing;
+            let inv = (0.5 / self.spacing).as_dvec3();
             (0..nz)
                 .into_par_iter()
                 .map(|k| {
                     let (k0, k1) = (k.saturating_sub(1), (k + 1).min(nz - 1));
-                    let mut best = 0.0f32;
+                    let mut best = 0.0f64;
                     for j in 0..ny {
                         let (j0, j1) = (j.saturating_sub(1), (j + 1).min(ny - 1));
                         for i in 0..nx {
                             let (i0, i1) = (i.saturating_sub(1), (i + 1).min(nx - 1));
-                            let g = Vec3::new(
-                                self.at(i1, j, k) - self.at(i0, j, k),
-                                self.at(i, j1, k) - self.at(i, j0, k),
-                                self.at(i, j, k1) - self.at(i, j, k0),
+                            let d = |a: f32, b: f32| f64::from(a) - f64::from(b);
+                            let g = glam::DVec3::new(
+                                d(self.at(i1, j, k), self.at(i0, j, k)),
+                                d(self.at(i, j1, k), self.at(i, j0, k)),
+                                d(self.at(i, j, k1), self.at(i, j, k0)),
                             ) * inv;
                             best = best.max(g.length_squared());
                         }
                     }
                     best
                 })
-                .reduce(|| 0.0, f32::max)
+                .reduce(|| 0.0, f64::max)
                 .sqrt()
+                .min(f64::from(f32::MAX)) as f32
         })
     }
 

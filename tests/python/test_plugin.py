@@ -387,8 +387,12 @@ def test_ao_volume_refuses_bad_arguments_and_cancels() -> None:
         occlux.ao_volume(scene, method="cdf", radius=0, device="cpu")
     with pytest.raises(occlux.OccluxError, match="directions"):
         occlux.ao_volume(scene, directions=0, device="cpu")
+    # The default method (the discrete ordinates) reaches the whole volume: a radius is refused
+    # rather than ignored.
+    with pytest.raises(occlux.OccluxError, match="radius.*ordinates would ignore it"):
+        occlux.ao_volume(scene, radius=3, device="cpu")
     with pytest.raises(occlux.OccluxError, match="cancelled"):
-        occlux.ao_volume(scene, radius=3, device="cpu", progress=lambda done, total: False)
+        occlux.ao_volume(scene, device="cpu", progress=lambda done, total: False)
 
 
 def test_ao_volume_by_the_physical_sweep_is_a_visibility_of_the_extinction() -> None:

@@ -76,7 +76,8 @@ fn open(path: &Path) -> Result<Box<dyn Source>> {
     if gzipped {
         use std::io::BufRead;
         let start = reader.fill_buf().map_err(|e| Error::io(path, e))?;
-        if !start.starts_with(&[0x1f, 0x8b]) {
+        // An empty file is reported as one with no header, below.
+        if !start.is_empty() && !start.starts_with(&[0x1f, 0x8b]) {
             return Err(Error::format(
                 path,
                 "a .gz file must be gzip-compressed, and this one does not start as gzip does \

@@ -1,11 +1,12 @@
 //! NumPy `.npy` files (format versions 1.0, 2.0 and 3.0) holding a 3-D array of one of the
 //! dtypes `u1 i1 u2 i2 u4 i4 f4 f8`, in either byte order (`<`, `>`, `|`, `=`).
 //!
-//! Axis order: a C-order array (`fortran_order: False`, numpy's default) has its last axis
-//! fastest, so shape `(nz, ny, nx)` maps to dims `[nx, ny, nz]`: `np.save(f, vol)` of an array
-//! indexed `vol[z, y, x]` loads as expected. A Fortran-order array has its first axis fastest, so
-//! shape `(nx, ny, nz)` maps to dims `[nx, ny, nz]`. Either way the bytes are used as stored,
-//! x fastest. Spacing is 1 and the origin 0 (the format has no geometry).
+//! Axis order: the array's logical axes, whatever its memory order, as `occlux.Volume(array)`
+//! reads an array in Python: shape `(nz, ny, nx)` maps to dims `[nx, ny, nz]`, so `np.save(f,
+//! vol)` of an array indexed `vol[z, y, x]` loads as expected. A Fortran-order array
+//! (`fortran_order: True`, `np.asfortranarray`) holds the same logical array with its first axis
+//! fastest, and is reordered on loading (one pass over the voxels), so it loads exactly as the
+//! C-order file of the same array. Spacing is 1 and the origin 0 (the format has no geometry).
 
 use super::{
     decode, finish, read_payload, Frame, Layout, LoadOptions, Placement, ScalarType, SourceInfo,
@@ -30,11 +31,14 @@ pub(super) fn load(path: &Path, opts: &LoadOptions) -> Result<(Volume, SourceInf
         Error::format(path, format!("bad .npy header {shown:?}: {message}"))
     })?;
     let (scalar, big_endian) = dtype(path, &header.descr)?;
-    let dims = dims(path, &header.shape, header.fortran_order)?;
+    let dims = dims(path, &header.shape)?;
     let layout = Layout::checked(path, dims, scalar, big_endian, opts)?;
     let bytes = read_payload(path, reader, "array data", &layout)?;
-    let values = decode(&bytes, &layout);
+    let mut values = decode(&bytes, &layout);
     drop(bytes);
+    if header.fortran_order {
+        values = c_order(&values, dims);
+    }
     let (volume, non_finite) = finish(
         path,
         dims,
@@ -261,13 +265,25 @@ fn dtype(path: &Path, descr: &str) -> Result<(ScalarType, bool)> {
 }
 
 /// Dims (x fastest) from the shape; see the module docs for the axis order.
-fn dims(path: &Path, shape: &[i64], fortran_order: bool) -> Result<[usize; 3]> {
+/// The voxels of a Fortran-order array (its first logical axis, z, fastest) in the volume's
+/// order, x fastest; `dims` = [nx, ny, nz].
+fn c_order(fortran: &[f32], [nx, ny, nz]: [usize; 3]) -> Vec<f32> {
+    let mut values = Vec::with_capacity(fortran.len());
+    for z in 0..nz {
+        for y in 0..ny {
+            values.extend((0..nx).map(|x| fortran[z + nz * (y + ny * x)]));
+        }
+    }
+    values
+}
+
+/// The volume's dims for an array of `shape` (its logical axes z, y, x).
+fn dims(path: &Path, shape: &[i64]) -> Result<[usize; 3]> {
     let sizes: Option<Vec<usize>> = shape
         .iter()
         .map(|&s| usize::try_from(s).ok().filter(|&s| s > 0))
         .collect();
     match sizes.as_deref() {
-        Some(&[a, b, c]) if fortran_order => Ok([a, b, c]),
         Some(&[a, b, c]) => Ok([c, b, a]),
         _ => Err(Error::format(
             path,
