@@ -204,7 +204,7 @@ impl Volume {
     /// Largest gradient magnitude over the voxel centres (normalises 2D transfer functions and
     /// the gradient-shading threshold). Computed once; at a centre, `gradient`'s samples one
     /// voxel away are the neighbouring voxels (clamped at the faces), so it reads them directly.
-    /// Squared lengths are summed in f64: values near 1e30 (finite) have gradients whose square
+    /// Differences and squared lengths are in f64: values near 1e30 (finite) have gradients whose square
     /// overflows f32, and an infinite maximum made 2D tables divide infinity by infinity.
     pub fn max_gradient_magnitude(&self) -> f32 {
         *self.max_gradient.get_or_init(|| {

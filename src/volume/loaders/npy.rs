@@ -264,7 +264,6 @@ fn dtype(path: &Path, descr: &str) -> Result<(ScalarType, bool)> {
     Ok((scalar, big_endian))
 }
 
-/// Dims (x fastest) from the shape; see the module docs for the axis order.
 /// The voxels of a Fortran-order array (its first logical axis, z, fastest) in the volume's
 /// order, x fastest; `dims` = [nx, ny, nz].
 fn c_order(fortran: &[f32], [nx, ny, nz]: [usize; 3]) -> Vec<f32> {
@@ -277,7 +276,8 @@ fn c_order(fortran: &[f32], [nx, ny, nz]: [usize; 3]) -> Vec<f32> {
     values
 }
 
-/// The volume's dims for an array of `shape` (its logical axes z, y, x).
+/// The volume's dims (x fastest) for an array of `shape` (its logical axes z, y, x); see the
+/// module docs for the axis order.
 fn dims(path: &Path, shape: &[i64]) -> Result<[usize; 3]> {
     let sizes: Option<Vec<usize>> = shape
         .iter()
