@@ -389,7 +389,7 @@ def test_ao_volume_refuses_bad_arguments_and_cancels() -> None:
         occlux.ao_volume(scene, directions=0, device="cpu")
     # The default method (the discrete ordinates) reaches the whole volume: a radius is refused
     # rather than ignored.
-    with pytest.raises(occlux.OccluxError, match="radius.*ordinates would ignore it"):
+    with pytest.raises(occlux.OccluxError, match=r"radius.*ordinates would ignore it"):
         occlux.ao_volume(scene, radius=3, device="cpu")
     with pytest.raises(occlux.OccluxError, match="cancelled"):
         occlux.ao_volume(scene, device="cpu", progress=lambda done, total: False)
