@@ -42,18 +42,21 @@ pub fn check_writable(out_dir: &Path) -> Result<()> {
         .map_err(|e| Error::io(out_dir, e))
 }
 
-/// Prefix of a set's hidden staging folder inside its output folder.
+/// Prefix of a set's hidden staging folder inside its output folder, and of its owner file.
 const STAGING_PREFIX: &str = ".occlux-staging-";
 
-/// The file in a staging folder that its process holds locked for as long as the set lives.
-/// The system drops the lock when the process ends, however it ends (SIGKILL included), so a
-/// later run that can take the lock knows the folder is left over, even if the process id has
-/// been reused since.
-const OWNER_LOCK: &str = ".owner";
+/// The owner file of staging folder `F` is `F.owner`, beside it. Its process holds it locked
+/// for as long as the set lives, and the system drops the lock when the process ends, however
+/// it ends (SIGKILL included), so a later run that can take the lock knows the folder is left
+/// over, even if the process id has been reused since. The owner is made and locked before its
+/// folder, so a folder without an owner is always left over (its process was killed while
+/// removing it); were the lock inside the folder, a folder killed before its lock was made
+/// would look like one whose process is about to make it.
+const OWNER_SUFFIX: &str = ".owner";
 
-/// A staging folder without its lock file is left over only once it is older than this: its
-/// process may be between making the folder and the lock.
-const UNLOCKED_GRACE: std::time::Duration = std::time::Duration::from_secs(60);
+/// Tries at claiming an owner file that a concurrent run's cleanup keeps removing between its
+/// creation and its lock (each such try is a window of two system calls).
+const CLAIM_TRIES: usize = 8;
 
 /// The staging folders of this process's live sets, for [`remove_live_staging`].
 static LIVE_STAGING: std::sync::Mutex<Vec<PathBuf>> = std::sync::Mutex::new(Vec::new());
@@ -63,6 +66,20 @@ fn live_staging() -> std::sync::MutexGuard<'static, Vec<PathBuf>> {
     LIVE_STAGING.lock().unwrap_or_else(|e| e.into_inner())
 }
 
+/// The owner file of staging folder `folder`.
+fn owner_of(folder: &Path) -> PathBuf {
+    let mut name = folder.as_os_str().to_owned();
+    name.push(OWNER_SUFFIX);
+    PathBuf::from(name)
+}
+
+/// Removes staging folder `folder`, then its owner file (in that order, so that a process
+/// killed between leaves an owner whose lock the next run can take). Best effort.
+fn remove_staging(folder: &Path) {
+    let _ = std::fs::remove_dir_all(folder);
+    let _ = std::fs::remove_file(owner_of(folder));
+}
+
 /// Removes the staging folders of every set of this process that is not committed yet: what
 /// a program calls when it is interrupted (SIGINT, SIGTERM) before it exits, so no partial
 /// files stay. A set being committed finishes first (the commit holds the same lock), so an
@@ -70,7 +87,7 @@ fn live_staging() -> std::sync::MutexGuard<'static, Vec<PathBuf>> {
 pub fn remove_live_staging() {
     let mut live = live_staging();
     for staging in live.drain(..) {
-        let _ = std::fs::remove_dir_all(&staging);
+        remove_staging(&staging);
     }
 }
 
@@ -83,22 +100,64 @@ fn remove_stale_staging(out_dir: &Path) {
     };
     for entry in entries.flatten() {
         let name = entry.file_name();
-        if !name.to_string_lossy().starts_with(STAGING_PREFIX) || !entry.path().is_dir() {
+        let name = name.to_string_lossy();
+        if !name.starts_with(STAGING_PREFIX) {
             continue;
         }
-        let folder = entry.path();
-        let stale = match File::open(folder.join(OWNER_LOCK)) {
-            Ok(lock) => lock.try_lock().is_ok(),
-            Err(_) => entry
-                .metadata()
-                .and_then(|m| m.modified())
-                .ok()
-                .and_then(|t| t.elapsed().ok())
-                .is_some_and(|age| age > UNLOCKED_GRACE),
-        };
-        if stale {
-            let _ = std::fs::remove_dir_all(&folder);
+        let path = entry.path();
+        if let Some(folder) = name.strip_suffix(OWNER_SUFFIX) {
+            let unowned = File::open(&path).is_ok_and(|owner| owner.try_lock().is_ok());
+            if unowned {
+                remove_staging(&out_dir.join(folder));
+            }
+        } else if path.is_dir() && !owner_of(&path).exists() {
+            // Its owner was made first and is removed last: this folder's process is gone.
+            let _ = std::fs::remove_dir_all(&path);
         }
+    }
+}
+
+/// An owner file in `out_dir`, locked, and still at its path: a concurrent run's cleanup that
+/// found it between its creation and its lock removed it, and a new name is taken.
+fn claim_owner(out_dir: &Path) -> Result<tempfile::NamedTempFile> {
+    for _ in 0..CLAIM_TRIES {
+        let owner = tempfile::Builder::new()
+            .prefix(STAGING_PREFIX)
+            .suffix(OWNER_SUFFIX)
+            .tempfile_in(out_dir)
+            .map_err(|e| Error::io(out_dir, e))?;
+        owner
+            .as_file()
+            .lock()
+            .map_err(|e| Error::io(owner.path(), e))?;
+        if still_at_path(&owner) {
+            return Ok(owner);
+        }
+        // Removed by the other run: forget the path rather than delete whatever holds it now.
+        drop(owner.into_temp_path().keep());
+    }
+    Err(Error::io(
+        out_dir,
+        std::io::Error::other(format!(
+            "another run removed this run's staging owner file {CLAIM_TRIES} times over"
+        )),
+    ))
+}
+
+/// Whether the file `owner` holds open is still the one at its path.
+fn still_at_path(owner: &tempfile::NamedTempFile) -> bool {
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::MetadataExt;
+        let (Ok(held), Ok(named)) = (owner.as_file().metadata(), owner.path().metadata()) else {
+            return false;
+        };
+        held.dev() == named.dev() && held.ino() == named.ino()
+    }
+    // Elsewhere an open file cannot be removed.
+    #[cfg(not(unix))]
+    {
+        owner.path().exists()
     }
 }
 
@@ -113,9 +172,11 @@ fn remove_stale_staging(out_dir: &Path) {
 /// and moves the new one last, so a reader that finds the marker finds the whole set, and a
 /// folder without it holds an incomplete one.
 pub struct OutputSet {
-    staging: tempfile::TempDir,
-    /// Held locked while the set lives (see [`OWNER_LOCK`]).
-    _owner: File,
+    /// The staging folder, removed when the set is dropped (committed or not).
+    staging: PathBuf,
+    /// Its owner file beside it (see [`OWNER_SUFFIX`]), held locked while the set lives and
+    /// removed after the folder.
+    _owner: tempfile::NamedTempFile,
     out_dir: PathBuf,
     names: Vec<String>,
     marker: Option<String>,
@@ -128,14 +189,16 @@ impl OutputSet {
     pub fn new(out_dir: &Path) -> Result<Self> {
         std::fs::create_dir_all(out_dir).map_err(|e| Error::io(out_dir, e))?;
         remove_stale_staging(out_dir);
-        let staging = tempfile::Builder::new()
-            .prefix(STAGING_PREFIX)
-            .tempdir_in(out_dir)
-            .map_err(|e| Error::io(out_dir, e))?;
-        let lock_path = staging.path().join(OWNER_LOCK);
-        let owner = File::create(&lock_path).map_err(|e| Error::io(&lock_path, e))?;
-        owner.lock().map_err(|e| Error::io(&lock_path, e))?;
-        live_staging().push(staging.path().to_path_buf());
+        let owner = claim_owner(out_dir)?;
+        let name = owner.path().as_os_str().to_string_lossy();
+        let staging = PathBuf::from(name.strip_suffix(OWNER_SUFFIX).unwrap_or(&name));
+        // The owner's name is this run's alone, so the folder's is too: one there already was
+        // left by a run that lost its owner file, and goes.
+        if staging.exists() {
+            let _ = std::fs::remove_dir_all(&staging);
+        }
+        std::fs::create_dir(&staging).map_err(|e| Error::io(&staging, e))?;
+        live_staging().push(staging.clone());
         Ok(Self {
             staging,
             _owner: owner,
@@ -158,7 +221,7 @@ impl OutputSet {
             ));
         }
         self.names.push(name.to_owned());
-        Ok(self.staging.path().join(name))
+        Ok(self.staging.join(name))
     }
 
     /// As [`OutputSet::path`], for the set's marker: the file that says the set is whole.
@@ -185,19 +248,20 @@ impl OutputSet {
         }
         let mut written = Vec::with_capacity(self.names.len() + 1);
         for name in self.names.iter().chain(&self.marker) {
-            let (from, to) = (self.staging.path().join(name), self.out_dir.join(name));
+            let (from, to) = (self.staging.join(name), self.out_dir.join(name));
             std::fs::rename(&from, &to).map_err(|e| Error::io(&to, e))?;
             written.push(to);
         }
-        live.retain(|p| p != self.staging.path());
+        live.retain(|p| p != &self.staging);
         Ok(written)
     }
 }
 
 impl Drop for OutputSet {
     fn drop(&mut self) {
-        // The TempDir removes the folder itself; it is no longer this process's to clean up.
-        live_staging().retain(|p| p != self.staging.path());
+        // The owner file goes after the folder, when the field drops.
+        let _ = std::fs::remove_dir_all(&self.staging);
+        live_staging().retain(|p| p != &self.staging);
     }
 }
 
@@ -305,19 +369,22 @@ mod tests {
     fn a_new_set_removes_staging_that_no_live_process_owns_and_commits_its_marker_last() {
         let dir = tempfile::tempdir().unwrap();
         let out = dir.path();
-        // Left by a killed run: its lock file is there, and nobody holds it.
+        // Left by a killed run: its owner file is there, and nobody holds its lock.
         let dead = out.join(".occlux-staging-dead");
         std::fs::create_dir(&dead).unwrap();
-        std::fs::write(dead.join(OWNER_LOCK), b"").unwrap();
+        std::fs::write(owner_of(&dead), b"").unwrap();
         std::fs::write(dead.join("engine.vdb"), b"half").unwrap();
+        // Killed as it removed its folder (the owner goes last), or before its folder was made.
+        let orphan = out.join(".occlux-staging-orphan");
+        std::fs::create_dir(&orphan).unwrap();
+        let lone_owner = owner_of(&out.join(".occlux-staging-early"));
+        std::fs::write(&lone_owner, b"").unwrap();
         // Owned by a live set (this process's: a second open file cannot take its lock).
         let live = OutputSet::new(out).unwrap();
-        // Just made, its lock not yet there: left alone for UNLOCKED_GRACE.
-        let young = out.join(".occlux-staging-young");
-        std::fs::create_dir(&young).unwrap();
         let mut set = OutputSet::new(out).unwrap();
-        assert!(!dead.exists());
-        assert!(live.staging.path().is_dir() && young.is_dir());
+        assert!(!dead.exists() && !owner_of(&dead).exists());
+        assert!(!orphan.exists() && !lone_owner.exists());
+        assert!(live.staging.is_dir() && owner_of(&live.staging).is_file());
         write_bytes_atomic(&set.marker("a.json").unwrap(), b"marker").unwrap();
         write_bytes_atomic(&set.path("a.vdb").unwrap(), b"grid").unwrap();
         let written = set.commit().unwrap();
@@ -326,6 +393,12 @@ mod tests {
         // (remove_live_staging, what a signal runs, would also take the staging of the other
         // tests of this process: the command line's interrupt test checks it.)
         drop(live);
+        let mut left: Vec<_> = std::fs::read_dir(out)
+            .unwrap()
+            .map(|e| e.unwrap().file_name().into_string().unwrap())
+            .collect();
+        left.sort();
+        assert_eq!(left, ["a.json", "a.vdb"]);
     }
 
     #[test]
