@@ -72,10 +72,10 @@ fn slab_error(n: usize, depth: usize, h: f32, sigma: f32) -> f64 {
         // The light enters at the top face, half a cell above the last centre.
         let z = (depth as f64 - 0.5 - k as f64) * h as f64;
         let want = once_scattered_mean(z, depth as f64 * h as f64, sigma as f64, albedo as f64);
-        let got = j.isotropic[cell].x as f64;
+        let got = j.bands.mean(cell).x as f64;
         squares += ((got - want) / want).powi(2);
-        // With g = 0 the in-scattered light has no directional part.
-        assert!(j.directional[cell].iter().all(|d| d.length() < 1e-6));
+        // With g = 0 the in-scattered light is isotropic: band 0 alone.
+        assert_eq!(j.bands.per_channel(), 1);
     }
     (squares / depth as f64).sqrt()
 }
@@ -117,17 +117,17 @@ fn more_bounces_add_light_and_stop_where_nothing_is_absorbed() {
     let (one, eight) = (run(1), run(8));
     assert_eq!(eight.bounces, 8);
     let total = |j: &occlux::transport::scattering::InScattered| -> f32 {
-        j.isotropic.iter().map(|v| v.x).sum()
+        (0..medium.scattering.len())
+            .map(|cell| j.bands.mean(cell).x)
+            .sum()
     };
     assert!(total(&eight) > 1.5 * total(&one));
-    assert!(eight
-        .isotropic
-        .iter()
-        .all(|v| v.is_finite() && v.min_element() >= 0.0));
+    assert!(eight.bands.values().iter().all(|v| v.is_finite()));
+    assert!((0..medium.scattering.len()).all(|cell| eight.bands.mean(cell).min_element() >= 0.0));
     // Forward scattering from a sun overhead: the light scattered once more leaves mostly
-    // downwards (the directional part points along -z where the sun's light travels).
+    // downwards (band 1's z coefficient is negative: the sun's light travels along -z).
     let centre = 6 + 12 * (6 + 12 * 9);
-    assert!(one.directional[centre][0].z < 0.0);
+    assert!(one.bands.cell(centre)[3] < 0.0);
     assert!(one.at(medium.centre(centre), -Vec3::Z).x > one.at(medium.centre(centre), Vec3::Z).x);
 }
 
@@ -144,7 +144,10 @@ fn a_lamp_inside_the_medium_stays_finite_and_ambient_light_is_refused() {
         intensity: Vec3::splat(10.0),
     };
     let j = in_scattered(&medium, &lamp, &params, &NoProgress).unwrap();
-    assert!(j.isotropic.iter().all(|v| v.is_finite() && v.x > 0.0));
+    assert!((0..medium.scattering.len()).all(|cell| {
+        let mean = j.bands.mean(cell);
+        mean.is_finite() && mean.x > 0.0
+    }));
     let e = in_scattered(
         &medium,
         &Light::Ambient {

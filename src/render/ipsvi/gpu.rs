@@ -26,6 +26,7 @@ use crate::optics::occupancy::CELL;
 use crate::progress::Progress;
 use crate::render::raycast::gpu::GpuVolume;
 use crate::render::{RenderImage, BACKGROUND_DEPTH};
+use crate::transport::scattering::bands::coefficients_for;
 use crate::transport::scattering::InScattered;
 use bytemuck::{Pod, Zeroable};
 use glam::{UVec2, UVec3, Vec2, Vec3};
@@ -154,7 +155,7 @@ struct Params {
     piecewise: u32,
     first_pass: u32,
     /// 0 single scattering, 1 the diffusion term (binding 9: chords), 2 the transport field
-    /// (binding 9: the field, [`field_values`]).
+    /// (binding 9: the field's bands, [`InScattered::bands`]'s layout).
     multiple: u32,
     _pad: [u32; 2],
     /// The transport field's grid (its first cell's centre, spacing and cells).
@@ -163,7 +164,8 @@ struct Params {
     field_spacing: Vec3,
     _pad_spacing: f32,
     field_dims: UVec3,
-    _pad_dims: u32,
+    /// The field's coefficients per colour channel.
+    field_coefficients: u32,
 }
 
 impl Params {
@@ -218,7 +220,7 @@ impl Params {
                 let [x, y, z] = f.grid.dims();
                 UVec3::new(x as u32, y as u32, z as u32)
             }),
-            _pad_dims: 0,
+            field_coefficients: field.map_or(1, |f| f.bands.per_channel() as u32),
         }
     }
 }
@@ -246,9 +248,9 @@ pub fn render_with_write_list(
     let (cells, occupancy_buffer) = volume.occupancy();
     let multiple = input.params.scattering == Scattering::Multiple;
     let grid = input.transport_medium()?;
-    let field_len = grid
-        .as_ref()
-        .map_or(0, |g| FIELD_STRIDE * g.scattering.len());
+    let field_len = grid.as_ref().map_or(0, |g| {
+        3 * coefficients_for(input.params.g) * g.scattering.len()
+    });
     let lists = Lists::new(
         ctx,
         &sweeps,
@@ -282,7 +284,7 @@ pub fn render_with_write_list(
                 ctx.queue.write_buffer(
                     &lists.chords,
                     0,
-                    bytemuck::cast_slice(&field_values(&field)),
+                    bytemuck::cast_slice(field.bands.values()),
                 );
                 Some(field)
             }
@@ -294,20 +296,6 @@ pub fn render_with_write_list(
     lists.check_overflow(ctx)?;
     let gathered = outputs.read(ctx)?;
     Ok(finish(camera, input.lighting.background, &gathered))
-}
-
-/// f32s per cell of the transport field on the GPU: the isotropic part's red, green and blue,
-/// then the red, green and blue channels' directional vectors.
-const FIELD_STRIDE: usize = 12;
-
-/// The transport field as the shader's `in_scattered` reads it.
-fn field_values(field: &InScattered) -> Vec<f32> {
-    field
-        .isotropic
-        .iter()
-        .zip(&field.directional)
-        .flat_map(|(i, [r, g, b])| [i.x, i.y, i.z, r.x, r.y, r.z, g.x, g.y, g.z, b.x, b.y, b.z])
-        .collect()
 }
 
 /// Most writes one view ray can leave: each write releases a cache ray that the view ray
@@ -396,7 +384,7 @@ impl Kernels {
 struct Lists {
     cache: wgpu::Buffer,
     /// Per texel, with the diffusion term, its cache ray's optical depth through the box (the
-    /// shader's `chords`); with transport, the light's field ([`field_values`]); one element
+    /// shader's `chords`); with transport, the light's field's bands; one element
     /// otherwise (the trace binds it either way).
     chords: wgpu::Buffer,
     writes: wgpu::Buffer,
@@ -740,7 +728,8 @@ mod tests {
                 multiple,
                 field_origin,
                 field_spacing,
-                field_dims
+                field_dims,
+                field_coefficients
             ]
         );
         assert_mirrors!(

@@ -89,6 +89,8 @@ struct Params {
     field_origin: vec3<f32>,
     field_spacing: vec3<f32>,
     field_dims: vec3<u32>,
+    // Its coefficients per colour channel (transport::scattering::bands).
+    field_coefficients: u32,
 };
 
 // What one view ray gathers under one light (cpu::PixelOut).
@@ -501,10 +503,19 @@ fn fluence_channel(tau_in: f32, ahead: f32, a_in: f32, g: f32) -> f32 {
     return max(phi, 0.0);
 }
 
-// InScattered::at: the transport field (binding 9, 12 f32 per cell: the isotropic part's rgb,
-// then the red, green and blue channels' directional vectors) at world point p towards
-// `leaving`, trilinear over the eight cells around p (clamped to the edge cells) in the CPU's
-// order, never negative.
+// bands::basis: the basis functions of bands 0 to 2 at unit direction w.
+fn band_basis(w: vec3<f32>) -> array<f32, 9> {
+    return array<f32, 9>(
+        1.0, w.x, w.y, w.z,
+        w.x * w.x - w.z * w.z, w.y * w.y - w.z * w.z,
+        2.0 * w.x * w.y, 2.0 * w.x * w.z, 2.0 * w.y * w.z,
+    );
+}
+
+// InScattered::at: the transport field (binding 9: per cell the red, green and blue channels'
+// field_coefficients band coefficients, bands::Bands) at world point p towards `leaving`,
+// trilinear over the eight cells around p (clamped to the edge cells) in the CPU's order,
+// never negative.
 fn in_scattered(p: vec3<f32>, leaving: vec3<f32>) -> vec3<f32> {
     let n = params.field_dims;
     let top = vec3<f32>(n - vec3<u32>(1u));
@@ -512,18 +523,21 @@ fn in_scattered(p: vec3<f32>, leaving: vec3<f32>) -> vec3<f32> {
     let i0 = vec3<u32>(c);
     let f = c - vec3<f32>(i0);
     let i1 = min(i0 + vec3<u32>(1u), n - vec3<u32>(1u));
+    var basis = band_basis(leaving);
+    let k = params.field_coefficients;
     var j = vec3<f32>(0.0);
     for (var corner = 0u; corner < 8u; corner = corner + 1u) {
         let high = vec3<bool>((corner & 1u) != 0u, (corner & 2u) != 0u, (corner & 4u) != 0u);
         let i = select(i0, i1, high);
         let w3 = select(vec3<f32>(1.0) - f, f, high);
         let w = w3.x * w3.y * w3.z;
-        let base = 12u * (i.x + n.x * (i.y + n.y * i.z));
-        let iso = vec3<f32>(chords[base], chords[base + 1u], chords[base + 2u]);
-        let r = vec3<f32>(chords[base + 3u], chords[base + 4u], chords[base + 5u]);
-        let g = vec3<f32>(chords[base + 6u], chords[base + 7u], chords[base + 8u]);
-        let b = vec3<f32>(chords[base + 9u], chords[base + 10u], chords[base + 11u]);
-        j = j + w * (iso + vec3<f32>(dot(r, leaving), dot(g, leaving), dot(b, leaving)));
+        let base = 3u * k * (i.x + n.x * (i.y + n.y * i.z));
+        var cell = vec3<f32>(0.0);
+        for (var b = 0u; b < k; b = b + 1u) {
+            cell = cell + basis[b] * vec3<f32>(
+                chords[base + b], chords[base + k + b], chords[base + 2u * k + b]);
+        }
+        j = j + w * cell;
     }
     return max(j, vec3<f32>(0.0));
 }

@@ -2,6 +2,7 @@
 //! plane each direction's source and radiance row by row in parallel. Planes are gathered into
 //! contiguous padded buffers once per sweep order and plane, as the visibility sweep does.
 
+use super::bands::{basis, coefficients_for, gathering, Bands, THROUGH_BAND_2};
 use super::direct::{direct, Direct};
 use super::{InScattered, ScatteringParams, CONVERGED};
 use crate::error::{Error, Result};
@@ -15,43 +16,32 @@ use glam::Vec3;
 use rayon::prelude::*;
 
 /// Where the radiance of a bounce comes from, per cell and direction.
-enum Source {
+enum Source<'a> {
     /// Light scattered for the first time: sigma_s E T per cell (colour) and the direction
     /// towards the light, with the exact phase.
     Direct(Direct, f32),
-    /// Light scattered again: sigma_s J, J = isotropic + directional . w.
-    Moments {
-        isotropic: Vec<Vec3>,
-        directional: Vec<[Vec3; 3]>,
+    /// Light scattered again: sigma_s J, J the bands of the previous bounce's field.
+    Bands {
+        field: Bands,
+        scattering: &'a [Vec3],
     },
 }
 
-impl Source {
-    /// The radiance source at `cell` for light leaving along `leaving`, never negative.
+impl Source<'_> {
+    /// The radiance source at `cell` for light leaving along `leaving` (`basis` its basis
+    /// functions), never negative.
     #[inline]
-    fn at(&self, cell: usize, leaving: Vec3) -> Vec3 {
+    fn at(&self, cell: usize, leaving: Vec3, basis: &[f32; THROUGH_BAND_2]) -> Vec3 {
         match self {
             // The light travels along -towards and leaves along `leaving`.
             Source::Direct(d, g) => {
                 d.irradiance[cell] * henyey_greenstein(*g, -d.towards[cell].dot(leaving))
             }
-            Source::Moments {
-                isotropic,
-                directional,
-            } => {
-                let d = &directional[cell];
-                (isotropic[cell]
-                    + Vec3::new(d[0].dot(leaving), d[1].dot(leaving), d[2].dot(leaving)))
-                .max(Vec3::ZERO)
+            Source::Bands { field, scattering } => {
+                scattering[cell] * field.eval(cell, basis).max(Vec3::ZERO)
             }
         }
     }
-}
-
-/// The moments of one bounce's swept field: m0 and m1 per cell.
-struct Moments {
-    m0: Vec<Vec3>,
-    m1: Vec<[Vec3; 3]>,
 }
 
 pub fn solve(
@@ -96,9 +86,9 @@ pub fn solve(
         *e *= *s / n;
     }
     let mut source = Source::Direct(d, params.g);
-    let mut isotropic = vec![Vec3::ZERO; cells];
-    let mut directional = vec![[Vec3::ZERO; 3]; cells];
-    let three_g = 3.0 * params.g;
+    let per_channel = coefficients_for(g);
+    let gather = gathering(ordinates, g);
+    let mut sum = Bands::zeros(cells, per_channel);
     let mut bounces = 0;
     for bounce in 0..params.bounces {
         let part = Part {
@@ -106,36 +96,25 @@ pub fn solve(
             offset: first + per_bounce * bounce as u64,
             total,
         };
-        let field = sweep(medium, ordinates, &source, &part)?;
+        let field = sweep(medium, ordinates, &gather, per_channel, &source, &part)?;
         bounces += 1;
-        let mut added = 0.0f64;
-        let mut found = 0.0f64;
-        for (cell, (m0, m1)) in field.m0.iter().zip(&field.m1).enumerate() {
-            isotropic[cell] += *m0;
-            for c in 0..3 {
-                directional[cell][c] += three_g * m1[c];
-            }
-            added += m0.element_sum() as f64;
-            found += isotropic[cell].element_sum() as f64;
-        }
-        if added <= CONVERGED as f64 * found || bounce + 1 == params.bounces {
+        sum.add(&field);
+        let band_0 = |bands: &Bands| -> f64 {
+            (0..cells)
+                .map(|cell| bands.mean(cell).element_sum() as f64)
+                .sum()
+        };
+        if band_0(&field) <= CONVERGED as f64 * band_0(&sum) || bounce + 1 == params.bounces {
             break;
         }
-        let sigma_s = &medium.scattering;
-        source = Source::Moments {
-            isotropic: field.m0.iter().zip(sigma_s).map(|(m, s)| *m * *s).collect(),
-            directional: field
-                .m1
-                .iter()
-                .zip(sigma_s)
-                .map(|(m, s)| [0, 1, 2].map(|c| three_g * s[c] * m[c]))
-                .collect(),
+        source = Source::Bands {
+            field,
+            scattering: &medium.scattering,
         };
     }
     Ok(InScattered {
         grid: medium.extinction.clone(),
-        isotropic,
-        directional,
+        bands: sum,
         bounces,
     })
 }
@@ -151,24 +130,26 @@ fn ordinates_axis_of(light: &Light, medium: &Medium) -> usize {
     }
 }
 
-/// One bounce: every ordinate swept with `source`; the moments of the radiance it carries.
+/// One bounce: every ordinate swept with `source`; the bands of the J its radiance scatters
+/// into (`gather` per ordinate, `per_channel` coefficients).
 fn sweep(
     medium: &Medium,
     ordinates: &Ordinates,
+    gather: &[[f32; THROUGH_BAND_2]],
+    per_channel: usize,
     source: &Source,
     progress: &dyn Progress,
-) -> Result<Moments> {
+) -> Result<Bands> {
     let dims = medium.dims();
     let sigma = medium.extinction.values();
     let cells = sigma.len();
-    let mut field = Moments {
-        m0: vec![Vec3::ZERO; cells],
-        m1: vec![[Vec3::ZERO; 3]; cells],
-    };
+    let stride = 3 * per_channel;
+    let mut field = Bands::zeros(cells, per_channel);
     let mut done = 0;
     for group in ordinates.groups() {
         let planes = Planes::new(dims, group.axis);
         let members = &ordinates.all()[group.members.clone()];
+        let gathers = &gather[group.members.clone()];
         let len = planes.padded_len();
         // Padding holds no scattered light and no matter, and is never written.
         let blank = Swept {
@@ -180,27 +161,39 @@ fn sweep(
         let mut upwind_sigma = vec![0.0f32; len];
         let mut swept_sigma = vec![0.0f32; len];
         let lateral = planes.lateral[0] * planes.lateral[1];
-        let mut plane = Moments {
-            m0: vec![Vec3::ZERO; lateral],
-            m1: vec![[Vec3::ZERO; 3]; lateral],
-        };
+        let mut plane = vec![0.0f32; lateral * stride];
         let mut index = vec![0usize; lateral];
         for k in planes.order(group.sign) {
             if progress.cancelled() {
                 return Err(Error::Cancelled);
             }
-            gather(&planes, k, sigma, &mut swept_sigma, &mut index);
+            gather_plane(&planes, k, sigma, &mut swept_sigma, &mut index);
+            let values = field.values_mut();
             for (i, &cell) in index.iter().enumerate() {
-                plane.m0[i] = field.m0[cell];
-                plane.m1[i] = field.m1[cell];
+                plane[i * stride..(i + 1) * stride]
+                    .copy_from_slice(&values[cell * stride..(cell + 1) * stride]);
             }
-            for (o, (up, now)) in members.iter().zip(upwind.iter().zip(&mut swept)) {
+            for ((o, weights), (up, now)) in members
+                .iter()
+                .zip(gathers)
+                .zip(upwind.iter().zip(&mut swept))
+            {
                 fill_source(&planes, o, source, &index, &mut now.source);
-                step(&planes, o, up, &upwind_sigma, &swept_sigma, now, &mut plane);
+                let coefficients = &weights[..per_channel];
+                step(
+                    &planes,
+                    o,
+                    coefficients,
+                    up,
+                    &upwind_sigma,
+                    &swept_sigma,
+                    now,
+                    &mut plane,
+                );
             }
             for (i, &cell) in index.iter().enumerate() {
-                field.m0[cell] = plane.m0[i];
-                field.m1[cell] = plane.m1[i];
+                values[cell * stride..(cell + 1) * stride]
+                    .copy_from_slice(&plane[i * stride..(i + 1) * stride]);
             }
             std::mem::swap(&mut upwind, &mut swept);
             std::mem::swap(&mut upwind_sigma, &mut swept_sigma);
@@ -219,7 +212,7 @@ struct Swept {
 }
 
 /// Plane `k`'s extinction into the padded `sigma`, and the grid index of each of its cells.
-fn gather(planes: &Planes, k: usize, values: &[f32], sigma: &mut [f32], index: &mut [usize]) {
+fn gather_plane(planes: &Planes, k: usize, values: &[f32], sigma: &mut [f32], index: &mut [usize]) {
     let [nb, nc] = planes.lateral;
     let [sb, sc, sa] = planes.strides;
     let row = planes.padded_row();
@@ -238,42 +231,45 @@ fn fill_source(planes: &Planes, o: &Ordinate, source: &Source, index: &[usize], 
     let [nb, _] = planes.lateral;
     let row = planes.padded_row();
     let leaving = -o.towards;
+    let basis = basis(leaving);
     out[row..row * (planes.lateral[1] + 1)]
         .par_chunks_mut(row)
         .zip(index.par_chunks(nb))
         .for_each(|(out_row, cells)| {
             for (b, &cell) in cells.iter().enumerate() {
-                out_row[b + 1] = source.at(cell, leaving);
+                out_row[b + 1] = source.at(cell, leaving, &basis);
             }
         });
 }
 
 /// One direction across one plane: the radiance at each cell from the upwind plane and the
-/// segment between (see the module docs of [`super`]), into `now`, its moments into `plane`.
+/// segment between (see the module docs of [`super`]), into `now`; what it scatters into,
+/// `coefficients` per unit radiance and colour channel, added to `plane`.
+#[allow(clippy::too_many_arguments)]
 fn step(
     planes: &Planes,
     o: &Ordinate,
+    coefficients: &[f32],
     up: &Swept,
     upwind_sigma: &[f32],
     sigma: &[f32],
     now: &mut Swept,
-    plane: &mut Moments,
+    plane: &mut [f32],
 ) {
     let [nb, _] = planes.lateral;
     let row = planes.padded_row();
     let weights = o.upwind_weights();
     let shift = o.upwind_shift(row);
     let ds = o.length;
-    let travel = -o.towards;
-    let w = o.weight;
+    let n = coefficients.len();
     let source = &now.source;
     now.radiance[row..row * (planes.lateral[1] + 1)]
         .par_chunks_mut(row)
-        .zip(plane.m0.par_chunks_mut(nb).zip(plane.m1.par_chunks_mut(nb)))
+        .zip(plane.par_chunks_mut(nb * 3 * n))
         .enumerate()
-        .for_each(|(c, (radiance_row, (m0_row, m1_row)))| {
+        .for_each(|(c, (radiance_row, bands_row))| {
             let start = row * (c + 1) + 1;
-            for b in 0..nb {
+            for (b, bands) in bands_row.chunks_exact_mut(3 * n).enumerate() {
                 let at = start + b;
                 let p = (at as isize + shift) as usize;
                 let corners = [p, p + 1, p + row, p + row + 1];
@@ -289,10 +285,10 @@ fn step(
                 let (e1, e2) = segment_weights(tau);
                 let l = l_up * (-tau).exp() + ds * (source[at] * (e1 - e2) + q_up * e2);
                 radiance_row[b + 1] = l;
-                m0_row[b] += w * l;
-                let m1 = &mut m1_row[b];
-                for ch in 0..3 {
-                    m1[ch] += (w * l[ch]) * travel;
+                for (channel, l) in bands.chunks_exact_mut(n).zip(l.to_array()) {
+                    for (a, k) in channel.iter_mut().zip(coefficients) {
+                        *a += l * k;
+                    }
                 }
             }
         });

@@ -13,11 +13,10 @@
 //!   E2 = (1 - e^-tau (1 + tau)) / tau^2,
 //!   which holds for optically thick cells too (L tends to Q / sigma_t) where a trapezoid rule
 //!   would overshoot by tau / 2;
-//! - keeps of the swept field, per cell, its first two angular moments m0 = sum_i w_i L_i and
-//!   m1 = sum_i w_i L_i (-w_i), from which the light scattered once more is
-//!   J(x, w) = m0 + 3 g m1 . w: the Henyey-Greenstein phase's expansion in Legendre
-//!   polynomials (band l weighted g^l) cut after band 1, exact for g = 0 and for any field
-//!   whose angular spread has no band above 1. The next bounce's source is sigma_s J.
+//! - gathers of the swept field, per cell, the light it scatters into: the Henyey-Greenstein
+//!   phase's expansion in Legendre polynomials (band l weighted (2l + 1) g^l) cut after band 2
+//!   ([`bands`]), J(x, w) = a + b . w + w^T C w, exact for g = 0 and for any field whose
+//!   angular spread has no band above 2. The next bounce's source is sigma_s J.
 //!
 //! The sum of the J of bounces 2 to `bounces` + 1 is the in-scattered radiance of light that
 //! has scattered at least once before: what a renderer that computes the first scattering
@@ -27,14 +26,16 @@
 //! adds less than [`CONVERGED`] of the light found so far, whatever the albedo (at albedo 1
 //! and no absorption the series is cut at `bounces`, as the reference's is).
 //!
-//! Errors: the angular ones of the visibility sweep (1 / N in the directions) and the band-1
+//! Errors: the angular ones of the visibility sweep (1 / N in the directions) and the band-2
 //! phase (light scattered twice keeps the anisotropy of the first scattering, exact in the
-//! source, through one swept field; the field's own bands above 1 are lost), the spatial ones
-//! of the short characteristics, and those of the grid's coarsening ([`super::medium`]).
-//! Memory: the medium (4 f32 per cell), two moment fields (12 f32 per cell each: m0 and m1 per
-//! colour channel) and the in-scattered sum (12 f32), plus per direction of a sweep order four
-//! padded planes of radiance and source.
+//! source, through one swept field; the field's own bands above 2 are lost: their weight in
+//! the phase falls as g^l, 0.22 of band 0's at l = 3 for g = 0.6), the spatial ones of the
+//! short characteristics, and those of the grid's coarsening ([`super::medium`]).
+//! Memory: the medium (4 f32 per cell), three band fields (the last bounce's, the one being
+//! swept and the sum: 27 f32 per cell each, 3 at g = 0), plus per direction of a sweep order
+//! four padded planes of radiance and source.
 
+pub mod bands;
 pub mod cpu;
 pub mod direct;
 
@@ -42,6 +43,7 @@ use super::medium::{trilinear, Medium};
 use crate::error::{Error, Result};
 use crate::lights::Light;
 use crate::progress::Progress;
+use bands::{basis, Bands};
 use glam::Vec3;
 
 /// A bounce that adds less than this fraction of the in-scattered light found so far ends the
@@ -61,16 +63,14 @@ pub struct ScatteringParams {
     pub g: f32,
 }
 
-/// The in-scattered radiance of multiply scattered light on the solver's grid:
-/// J(x, w) = `isotropic` + (`directional`[c] . w) per colour channel c, w the direction the
-/// scattered light leaves in.
+/// The in-scattered radiance J(x, w) of multiply scattered light on the solver's grid, w the
+/// direction the scattered light leaves in: per cell and colour channel its bands 0 to 2
+/// ([`bands`]).
 #[derive(Clone, Debug)]
 pub struct InScattered {
     /// The grid (its extinction, which the solve read).
     pub grid: crate::volume::Volume,
-    pub isotropic: Vec<Vec3>,
-    /// Per cell, the red, green and blue channels' band-1 vectors.
-    pub directional: Vec<[Vec3; 3]>,
+    pub bands: Bands,
     /// Bounces computed (fewer than asked when the series converged first).
     pub bounces: u32,
 }
@@ -80,12 +80,10 @@ impl InScattered {
     /// (unit), never negative.
     #[inline]
     pub fn at(&self, p: Vec3, leaving: Vec3) -> Vec3 {
+        let basis = basis(leaving);
         let mut j = Vec3::ZERO;
         for (cell, weight) in trilinear(&self.grid, p) {
-            let d = &self.directional[cell];
-            j += weight
-                * (self.isotropic[cell]
-                    + Vec3::new(d[0].dot(leaving), d[1].dot(leaving), d[2].dot(leaving)));
+            j += weight * self.bands.eval(cell, &basis);
         }
         j.max(Vec3::ZERO)
     }
