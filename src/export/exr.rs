@@ -132,7 +132,7 @@ pub fn write_exr(
                 FlatSamples::F16(values.map(|&v| f16::from_f32(v)).collect())
             };
             channels.push(AnyChannel::new(
-                text(&format!("{}.{channel}", layer.name))?,
+                name(&format!("{}.{channel}", layer.name))?,
                 samples,
             ));
         }
@@ -144,7 +144,7 @@ pub fn write_exr(
     for (key, value) in metadata {
         attributes
             .other
-            .insert(text(key)?, AttributeValue::Text(text(value)?));
+            .insert(name(key)?, AttributeValue::Text(text(value)?));
     }
     let layer = Layer::new(
         (width as usize, height as usize),
@@ -265,6 +265,18 @@ fn text(s: &str) -> Result<Text> {
     Text::new_or_none(s).ok_or_else(|| Error::param("exr", format!("'{s}' cannot be an EXR text")))
 }
 
+/// An attribute's or a channel's name: the header ends each at a NUL byte, so an empty name or
+/// one holding NUL would end the header's list early and leave the file unreadable.
+fn name(s: &str) -> Result<Text> {
+    if s.is_empty() || s.contains('\0') {
+        return Err(Error::param(
+            "exr",
+            format!("{s:?} cannot name an EXR attribute or channel: names are non-empty and hold no NUL byte"),
+        ));
+    }
+    text(s)
+}
+
 /// Reads an EXR written by [`write_exr`] or another tool (Blender writes one part per pass),
 /// grouping channels `layer.channel` into layers; a part's name prefixes its channels, and
 /// channels with no prefix at all form the layer "". Text attributes of every part are kept.
@@ -377,6 +389,18 @@ mod tests {
             [0.0, 0.25, 0.25, 0.75, 0.1, 1.0]
         );
         assert_eq!(layer.channel("A").unwrap(), coverage);
+    }
+
+    #[test]
+    fn names_the_header_cannot_end_are_refused() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("a.exr");
+        for key in ["", "\0", "occlux/\0plan"] {
+            let meta = BTreeMap::from([(key.to_string(), String::new())]);
+            let e = write_exr(&path, 3, 2, &layers(), &meta, Precision::Half).unwrap_err();
+            assert!(e.to_string().contains("NUL"), "{e}");
+            assert!(!path.exists());
+        }
     }
 
     #[test]
