@@ -190,8 +190,8 @@ impl OutputSet {
         std::fs::create_dir_all(out_dir).map_err(|e| Error::io(out_dir, e))?;
         remove_stale_staging(out_dir);
         let owner = claim_owner(out_dir)?;
-        let name = owner.path().as_os_str().to_string_lossy();
-        let staging = PathBuf::from(name.strip_suffix(OWNER_SUFFIX).unwrap_or(&name));
+        // The owner's name is the folder's with OWNER_SUFFIX (tempfile's random part has no dot).
+        let staging = owner.path().with_extension("");
         // The owner's name is this run's alone, so the folder's is too: one there already was
         // left by a run that lost its owner file, and goes.
         if staging.exists() {

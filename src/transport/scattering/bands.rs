@@ -74,11 +74,8 @@ pub fn gathering(ordinates: &Ordinates, g: f32) -> Vec<[f32; THROUGH_BAND_2]> {
             let d = w - mean;
             // [xx, yy, zz, xy, xz, yz] about the set's sums: C's coefficients are Qxx, Qyy,
             // Qxy, Qxz, Qyz (Qzz follows from the trace).
-            let q: Vec<f64> = quadratic_terms(w)
-                .iter()
-                .zip(&second)
-                .map(|(v, s)| v - s)
-                .collect();
+            let terms = quadratic_terms(w);
+            let q: [f64; 6] = std::array::from_fn(|i| terms[i] - second[i]);
             [
                 weight,
                 weight * band_1 * d.x,
