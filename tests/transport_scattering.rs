@@ -64,7 +64,7 @@ fn slab_error(n: usize, depth: usize, h: f32, sigma: f32) -> f64 {
         bounces: 1,
         g: 0.0,
     };
-    let j = in_scattered(&medium, &sun(), &params, &NoProgress).unwrap();
+    let j = in_scattered(None, &medium, &sun(), &params, &NoProgress).unwrap();
     assert_eq!(j.bounces, 1);
     let mut squares = 0.0f64;
     for k in 0..depth {
@@ -112,7 +112,7 @@ fn more_bounces_add_light_and_stop_where_nothing_is_absorbed() {
             bounces,
             g: 0.6,
         };
-        in_scattered(&medium, &sun(), &params, &NoProgress).unwrap()
+        in_scattered(None, &medium, &sun(), &params, &NoProgress).unwrap()
     };
     let (one, eight) = (run(1), run(8));
     assert_eq!(eight.bounces, 8);
@@ -143,12 +143,13 @@ fn a_lamp_inside_the_medium_stays_finite_and_ambient_light_is_refused() {
         position: Vec3::splat(3.0),
         intensity: Vec3::splat(10.0),
     };
-    let j = in_scattered(&medium, &lamp, &params, &NoProgress).unwrap();
+    let j = in_scattered(None, &medium, &lamp, &params, &NoProgress).unwrap();
     assert!((0..medium.scattering.len()).all(|cell| {
         let mean = j.bands.mean(cell);
         mean.is_finite() && mean.x > 0.0
     }));
     let e = in_scattered(
+        None,
         &medium,
         &Light::Ambient {
             radiance: Vec3::ONE,
@@ -164,13 +165,13 @@ fn a_lamp_inside_the_medium_stays_finite_and_ambient_light_is_refused() {
             directions,
             ..params
         };
-        let e = in_scattered(&medium, &lamp, &p, &NoProgress)
+        let e = in_scattered(None, &medium, &lamp, &p, &NoProgress)
             .unwrap_err()
             .to_string();
         assert!(e.contains("directions"), "{e}");
     }
     let p = ScatteringParams { g: 1.0, ..params };
-    assert!(in_scattered(&medium, &lamp, &p, &NoProgress).is_err());
+    assert!(in_scattered(None, &medium, &lamp, &p, &NoProgress).is_err());
 }
 
 #[test]

@@ -2,6 +2,8 @@
 // They mirror src/volume/mod.rs (sampling) and src/render/steps.rs (a view ray's steps) so that
 // GPU and CPU twins agree.
 
+const PI: f32 = 3.14159265358979;
+
 // Trilinear sample at continuous index coordinates c (voxel centres at integers), clamped to the
 // edge voxels: Volume::sample_index, operation for operation. The eight voxels are loaded and
 // interpolated here in f32 rather than by a sampler: hardware filtering computes its weights in

@@ -54,8 +54,22 @@ pub const PLANE: Wgsl = Wgsl {
     text: include_str!("../../shaders/shared/plane.wgsl"),
     includes: &[],
 };
+/// The Henyey-Greenstein phase and the basis of its bands (transport::scattering::bands).
+pub const PHASE: Wgsl = Wgsl {
+    name: "phase.wgsl",
+    text: include_str!("../../shaders/shared/phase.wgsl"),
+    includes: &[],
+};
+/// The planes and slots of the discrete-ordinates sweeps (transport::gpu::sweep_orders).
+pub const ORDINATES: Wgsl = Wgsl {
+    name: "ordinates.wgsl",
+    text: include_str!("../../shaders/shared/ordinates.wgsl"),
+    includes: &[],
+};
 /// The helpers any kernel may include.
-pub const SHARED: &[&Wgsl] = &[&COMMON, &CLASSIFY, &OCCUPANCY, &VIEW, &PLANE];
+pub const SHARED: &[&Wgsl] = &[
+    &COMMON, &CLASSIFY, &OCCUPANCY, &VIEW, &PLANE, &PHASE, &ORDINATES,
+];
 
 const INCLUDE: &str = "//#include";
 

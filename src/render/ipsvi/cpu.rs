@@ -47,7 +47,7 @@ pub fn render(input: &IpsviInput, progress: &dyn Progress) -> Result<RenderImage
     let grid = input.transport_medium()?;
     for (pass, Sweep { light, lines, map }) in sweeps.iter().enumerate() {
         let field = match &grid {
-            Some(grid) => Some(input.transport_field(grid, light, progress)?),
+            Some(grid) => Some(input.transport_field(None, grid, light, progress)?),
             None => None,
         };
         let tracer = Tracer {

@@ -276,11 +276,12 @@ pub fn render_with_write_list(
         occupancy: occupancy_buffer,
     };
     for (pass, sweep) in sweeps.iter().enumerate() {
-        // The light's transport field, solved on the CPU, replaces the last light's (writes
-        // reach the queue after the submissions that read the last one).
+        // The light's transport field, solved on the GPU and read back, replaces the last
+        // light's (writes reach the queue after the submissions that read the last one).
         let field = match &grid {
             Some(grid) => {
-                let field = input.transport_field(grid, sweep.light, progress.progress)?;
+                let field =
+                    input.transport_field(Some(ctx), grid, sweep.light, progress.progress)?;
                 ctx.queue.write_buffer(
                     &lists.chords,
                     0,

@@ -14,8 +14,8 @@
 //#include "classify.wgsl"
 //#include "occupancy.wgsl"
 //#include "ipsvi_cache.wgsl"
+//#include "phase.wgsl"
 
-const PI: f32 = 3.14159265358979;
 const BACKGROUND_DEPTH: f32 = 1.0e10;
 // Stands for the CPU's infinite lengths (no anchor, a sun's distance): longer than any path
 // through a box, so every min it enters picks the other operand as the CPU's infinity does.
@@ -440,12 +440,6 @@ fn incident(p: vec3<f32>, to_light: ptr<function, vec3<f32>>) -> vec3<f32> {
     return params.colour / r2;
 }
 
-// Henyey-Greenstein phase function (reference::phase::henyey_greenstein).
-fn henyey_greenstein(g: f32, cos_theta: f32) -> f32 {
-    let denom = 1.0 + g * g - 2.0 * g * cos_theta;
-    return (1.0 - g * g) / (4.0 * PI * denom * sqrt(denom));
-}
-
 // diffusion::lateral_escape: B^2 of the two directions across the light for a body as wide
 // as the slab (L deep) is.
 fn lateral_escape(l: f32, d: f32) -> f32 {
@@ -501,15 +495,6 @@ fn fluence_channel(tau_in: f32, ahead: f32, a_in: f32, g: f32) -> f32 {
         - f * (4.0 * d * beam_out + m * (1.0 + 2.0 * d) * spread_l)) / det;
     let phi = f * spread(tau, mu) + near_face * exp(-mu * tau) + far_face * exp(-mu * (l - tau));
     return max(phi, 0.0);
-}
-
-// bands::basis: the basis functions of bands 0 to 2 at unit direction w.
-fn band_basis(w: vec3<f32>) -> array<f32, 9> {
-    return array<f32, 9>(
-        1.0, w.x, w.y, w.z,
-        w.x * w.x - w.z * w.z, w.y * w.y - w.z * w.z,
-        2.0 * w.x * w.y, 2.0 * w.x * w.z, 2.0 * w.y * w.z,
-    );
 }
 
 // InScattered::at: the transport field (binding 9: per cell the red, green and blue channels'

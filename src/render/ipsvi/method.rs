@@ -63,7 +63,7 @@ impl RenderMethod for IpsviParams {
         summary: "Image plane sweep volume illumination: single (or approximated multiple) \
                   scattering with shadows from suns and lamps in one ray-casting pass (Sundén et al. 2011)",
         module: "render::ipsvi",
-        shaders: &["ipsvi.wgsl", "ipsvi_merge.wgsl"],
+        shaders: &["ipsvi.wgsl", "ipsvi_merge.wgsl", "scattering.wgsl"],
         lights: &[LightKind::Directional, LightKind::Point],
         layers: &["beauty", "depth", "shadow"],
         grids: &[],

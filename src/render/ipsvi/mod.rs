@@ -219,9 +219,10 @@ impl IpsviInput<'_> {
     }
 
     /// The multiply scattered light of `light` in `medium`, 8 bounces as the `multiple`
-    /// reference.
+    /// reference, solved on `gpu` (the CPU without one).
     pub fn transport_field(
         &self,
+        gpu: Option<&crate::gpu::GpuContext>,
         medium: &crate::transport::medium::Medium,
         light: &Light,
         progress: &dyn Progress,
@@ -232,6 +233,7 @@ impl IpsviInput<'_> {
             g: self.params.g,
         };
         crate::transport::scattering::in_scattered(
+            gpu,
             medium,
             light,
             &params,

@@ -6,7 +6,6 @@
 //#include "classify.wgsl"
 //#include "occupancy.wgsl"
 
-const PI: f32 = 3.14159265358979;
 const BACKGROUND_DEPTH: f32 = 1.0e10;
 const MAX_LIGHTS: u32 = 8u;
 

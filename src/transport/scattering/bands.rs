@@ -120,6 +120,16 @@ impl Bands {
         }
     }
 
+    /// Bands from `values` in [`Bands`]' layout (a whole number of cells of `per_channel`
+    /// coefficients per channel, as the GPU twin reads them back).
+    pub fn from_values(per_channel: usize, values: Vec<f32>) -> Self {
+        debug_assert!(values.len().is_multiple_of(3 * per_channel));
+        Self {
+            per_channel,
+            values,
+        }
+    }
+
     pub fn per_channel(&self) -> usize {
         self.per_channel
     }

@@ -3,43 +3,35 @@
 //! contiguous padded buffers once per sweep order and plane, as the visibility sweep does.
 
 use super::bands::{basis, coefficients_for, gathering, Bands, THROUGH_BAND_2};
-use super::direct::{direct, Direct};
-use super::{InScattered, ScatteringParams, CONVERGED};
+use super::{iterate, InScattered, ScatteringParams, Source};
 use crate::error::{Error, Result};
 use crate::lights::Light;
 use crate::optics::phase::henyey_greenstein;
-use crate::progress::{Part, Progress};
+use crate::progress::Progress;
 use crate::transport::directions::{Ordinate, Ordinates};
 use crate::transport::medium::Medium;
-use crate::transport::{total_planes, Planes};
+use crate::transport::Planes;
 use glam::Vec3;
 use rayon::prelude::*;
 
-/// Where the radiance of a bounce comes from, per cell and direction.
-enum Source<'a> {
-    /// Light scattered for the first time: sigma_s E T per cell (colour) and the direction
-    /// towards the light, with the exact phase.
-    Direct(Direct, f32),
-    /// Light scattered again: sigma_s J, J the bands of the previous bounce's field.
-    Bands {
-        field: Bands,
-        scattering: &'a [Vec3],
-    },
+/// A bounce's source as the sweep reads it, per cell and direction.
+struct Reading<'a> {
+    source: &'a Source,
+    g: f32,
+    scattering: &'a [Vec3],
 }
 
-impl Source<'_> {
+impl Reading<'_> {
     /// The radiance source at `cell` for light leaving along `leaving` (`basis` its basis
     /// functions), never negative.
     #[inline]
     fn at(&self, cell: usize, leaving: Vec3, basis: &[f32; THROUGH_BAND_2]) -> Vec3 {
-        match self {
+        match self.source {
             // The light travels along -towards and leaves along `leaving`.
-            Source::Direct(d, g) => {
-                d.irradiance[cell] * henyey_greenstein(*g, -d.towards[cell].dot(leaving))
+            Source::Direct(d) => {
+                d.irradiance[cell] * henyey_greenstein(self.g, -d.towards[cell].dot(leaving))
             }
-            Source::Bands { field, scattering } => {
-                scattering[cell] * field.eval(cell, basis).max(Vec3::ZERO)
-            }
+            Source::Bands(field) => self.scattering[cell] * field.eval(cell, basis).max(Vec3::ZERO),
         }
     }
 }
@@ -51,83 +43,24 @@ pub fn solve(
     params: &ScatteringParams,
     progress: &dyn Progress,
 ) -> Result<InScattered> {
-    let dims = medium.dims();
-    let cells = medium.scattering.len();
-    let per_bounce = total_planes(dims, ordinates);
-    let first = dims[ordinates_axis_of(light, medium)] as u64;
-    let total = first + per_bounce * params.bounces as u64;
-    let mut d = direct(
-        medium,
-        light,
-        &Part {
-            whole: progress,
-            offset: 0,
-            total,
-        },
-    )?;
-    // The first source's phase as the ordinates integrate it: a forward lobe (g = 0.6 peaks
-    // at ten times the isotropic phase) falls between few directions, and its sum over them
-    // would gain or lose light with the light's direction; divided by that sum, the first
-    // scattering keeps exactly the light it takes, whatever the set.
     let g = params.g;
-    let norms: Vec<f32> = d
-        .towards
-        .par_iter()
-        .map(|t| {
-            let sum: f32 = ordinates
-                .all()
-                .iter()
-                .map(|o| o.weight * henyey_greenstein(g, t.dot(o.towards)))
-                .sum();
-            4.0 * std::f32::consts::PI * sum
-        })
-        .collect();
-    for ((e, s), n) in d.irradiance.iter_mut().zip(&medium.scattering).zip(norms) {
-        *e *= *s / n;
-    }
-    let mut source = Source::Direct(d, params.g);
     let per_channel = coefficients_for(g);
     let gather = gathering(ordinates, g);
-    let mut sum = Bands::zeros(cells, per_channel);
-    let mut bounces = 0;
-    for bounce in 0..params.bounces {
-        let part = Part {
-            whole: progress,
-            offset: first + per_bounce * bounce as u64,
-            total,
-        };
-        let field = sweep(medium, ordinates, &gather, per_channel, &source, &part)?;
-        bounces += 1;
-        sum.add(&field);
-        let band_0 = |bands: &Bands| -> f64 {
-            (0..cells)
-                .map(|cell| bands.mean(cell).element_sum() as f64)
-                .sum()
-        };
-        if band_0(&field) <= CONVERGED as f64 * band_0(&sum) || bounce + 1 == params.bounces {
-            break;
-        }
-        source = Source::Bands {
-            field,
-            scattering: &medium.scattering,
-        };
-    }
-    Ok(InScattered {
-        grid: medium.extinction.clone(),
-        bands: sum,
-        bounces,
-    })
-}
-
-/// The axis the light's own sweep steps across (a lamp's march counts as one plane's worth
-/// per plane of z), for progress.
-fn ordinates_axis_of(light: &Light, medium: &Medium) -> usize {
-    match *light {
-        Light::Directional { to_light, .. } => {
-            Ordinates::single(to_light.normalize(), medium.extinction.spacing()).all()[0].axis
-        }
-        _ => 2,
-    }
+    iterate(
+        medium,
+        light,
+        ordinates,
+        params,
+        progress,
+        |source, part| {
+            let reading = Reading {
+                source: &source,
+                g,
+                scattering: &medium.scattering,
+            };
+            sweep(medium, ordinates, &gather, per_channel, &reading, part)
+        },
+    )
 }
 
 /// One bounce: every ordinate swept with `source`; the bands of the J its radiance scatters
@@ -137,7 +70,7 @@ fn sweep(
     ordinates: &Ordinates,
     gather: &[[f32; THROUGH_BAND_2]],
     per_channel: usize,
-    source: &Source,
+    source: &Reading,
     progress: &dyn Progress,
 ) -> Result<Bands> {
     let dims = medium.dims();
@@ -227,7 +160,7 @@ fn gather_plane(planes: &Planes, k: usize, values: &[f32], sigma: &mut [f32], in
 }
 
 /// The source of direction `o` at each cell of the plane (`index`), into the padded `out`.
-fn fill_source(planes: &Planes, o: &Ordinate, source: &Source, index: &[usize], out: &mut [Vec3]) {
+fn fill_source(planes: &Planes, o: &Ordinate, source: &Reading, index: &[usize], out: &mut [Vec3]) {
     let [nb, _] = planes.lateral;
     let row = planes.padded_row();
     let leaving = -o.towards;
