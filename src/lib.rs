@@ -4,6 +4,7 @@
 //! Data flows one way: [`volume`] (load) -> [`classify`] -> [`render`] -> [`export`].
 
 pub mod ao;
+pub mod bake;
 pub mod budget;
 pub mod camera;
 pub mod classify;

@@ -1,6 +1,7 @@
 //! Runs a scene end to end: load, classify, render on the chosen device, write the outputs.
 
 use crate::ao::vao::AoVolume;
+use crate::bake::Baked;
 use crate::classify::Classification;
 use crate::error::{Error, Result};
 use crate::export::atomic::{write_bytes_atomic, OutputSet};
@@ -401,6 +402,33 @@ pub fn write_ao(
         serde_json::to_string_pretty(record).map_err(|e| Error::param("json", e.to_string()))?;
     // The record is the set's marker, moved into place last: where it is, the grids are.
     write_bytes_atomic(&set.marker(&format!("{stem}-ao.json"))?, text.as_bytes())?;
+    set.commit()
+}
+
+/// Writes a bake: `OUT/STEM-bake.vdb` (grids `density` and `value` as an export writes them,
+/// then the baked grids, [`crate::bake`]) and `OUT/STEM-bake.json` (`record`, the set's
+/// marker). Returns the paths written.
+pub fn write_bake(
+    baked: &Baked,
+    density: &ExportDensity,
+    volume: &Volume,
+    record: &serde_json::Value,
+    out_dir: &Path,
+    stem: &str,
+    vdb: &VdbOptions,
+) -> Result<Vec<PathBuf>> {
+    let named = baked.grids();
+    let mut grids = export_grids(&[], density, volume);
+    grids.extend(
+        named
+            .iter()
+            .map(|(name, grid)| VdbGrid::from_volume(name, grid)),
+    );
+    let mut set = OutputSet::new(out_dir)?;
+    write_vdb(&set.path(&format!("{stem}-bake.vdb"))?, &grids, vdb)?;
+    let text =
+        serde_json::to_string_pretty(record).map_err(|e| Error::param("json", e.to_string()))?;
+    write_bytes_atomic(&set.marker(&format!("{stem}-bake.json"))?, text.as_bytes())?;
     set.commit()
 }
 

@@ -4,10 +4,9 @@
 use glam::Vec3;
 use occlux::export::vdb::{write_vdb, Compression, VdbGrid, VdbOptions};
 use occlux::volume::{load, LoadOptions, Volume};
-use std::collections::HashMap;
-use std::path::Path;
 
 mod common;
+use common::vdb::read_with_vdb_rs;
 
 /// A sparse field: a ball of varying density in a larger empty box, spanning several leaves
 /// and (at 150 voxels) more than one 128^3 internal node along x.
@@ -22,27 +21,6 @@ fn ball(dims: [usize; 3], spacing: Vec3, origin: Vec3) -> Volume {
         }
     })
     .unwrap()
-}
-
-fn read_with_vdb_rs(path: &Path, name: &str) -> (HashMap<[i32; 3], f32>, [f64; 3], [f64; 3]) {
-    let file = std::io::BufReader::new(std::fs::File::open(path).unwrap());
-    let mut reader = vdb_rs::VdbReader::new(file).unwrap();
-    let grid = reader.read_grid::<f32>(name).unwrap();
-    let voxels = grid
-        .iter()
-        .map(|(p, v, level)| {
-            assert!(level == vdb_rs::VdbLevel::Voxel, "no tiles expected");
-            ([p.x as i32, p.y as i32, p.z as i32], v)
-        })
-        .collect();
-    match grid.transform {
-        vdb_rs::Map::ScaleTranslateMap {
-            scale_values,
-            translation,
-            ..
-        } => (voxels, scale_values.to_array(), translation.to_array()),
-        _ => panic!("expected a scale-translate map"),
-    }
 }
 
 /// Every storage option: zlib or not, float32 or half. Half-float files hold each value rounded

@@ -2,6 +2,7 @@
 //! (the measuring commands' bodies are the lab's).
 
 mod ao;
+mod bake;
 mod plan;
 mod reference;
 mod render;
@@ -288,6 +289,34 @@ enum Command {
         #[arg(long)]
         half: bool,
     },
+    /// Bake the scene's light into grids any renderer can shade with, without tracing shadows:
+    /// OUT/STEM-bake.vdb holds `density` and `value` (as `export` writes them), `ao` (the
+    /// ambient visibility), per sun or lamp i `light{i}` (its irradiance reaching each voxel per
+    /// unit strength) and `light{i}_multiple_r/_g/_b` (its multiply scattered light per unit
+    /// strength); OUT/STEM-bake.json says which grid is which light (docs/blender.md).
+    Bake {
+        scene: PathBuf,
+        #[arg(short, long, default_value = "occlux-out")]
+        out: PathBuf,
+        /// Directions of the ambient visibility (discrete ordinates).
+        #[arg(long, default_value_t = occlux::transport::DEFAULT_DIRECTIONS)]
+        directions: u32,
+        /// Leave out the multiply scattered light (the light{i}_multiple grids).
+        #[arg(long)]
+        no_multiple: bool,
+        /// Henyey-Greenstein asymmetry of the multiple scattering, in (-1, 1).
+        #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
+        g: f32,
+        /// Where to compute: auto picks a hardware GPU adapter if one opens, else the CPU.
+        #[arg(long, default_value = "auto")]
+        device: DeviceChoice,
+        /// VDB value compression on top of active-mask compression.
+        #[arg(long, default_value = "zip")]
+        compression: VdbCompression,
+        /// Store VDB values as half floats.
+        #[arg(long)]
+        half: bool,
+    },
     /// The rendering methods a scene can name, with their parameters (defaults, ranges), the
     /// lights they take and the layers and grids they write.
     Methods {
@@ -537,6 +566,27 @@ fn run(cli: Cli) -> occlux::Result<()> {
                 half,
             };
             ao_volume(&scene, &params, device, &out, &vdb, quiet)
+        }
+        Command::Bake {
+            scene,
+            out,
+            directions,
+            no_multiple,
+            g,
+            device,
+            compression,
+            half,
+        } => {
+            let params = occlux::bake::BakeParams {
+                directions,
+                multiple: !no_multiple,
+                g,
+            };
+            let vdb = VdbOptions {
+                compression: compression.into(),
+                half,
+            };
+            crate::bake::bake_scene(&scene, &params, device, &out, &vdb, quiet)
         }
         Command::Methods { json } => {
             methods(json);

@@ -79,13 +79,7 @@ impl Medium {
 
     /// World position of cell `index` (x fastest).
     pub fn centre(&self, index: usize) -> Vec3 {
-        let [nx, ny, _] = self.dims();
-        let c = Vec3::new(
-            (index % nx) as f32,
-            ((index / nx) % ny) as f32,
-            (index / (nx * ny)) as f32,
-        );
-        self.extinction.origin() + self.extinction.spacing() * c
+        self.extinction.centre(index)
     }
 }
 

@@ -135,6 +135,17 @@ impl Volume {
     }
 
     /// World-space bounding box (min corner, max corner) of the voxels' cells.
+    /// The world position of the centre of voxel `index` (x fastest, then y, then z).
+    pub fn centre(&self, index: usize) -> Vec3 {
+        let [nx, ny, _] = self.dims;
+        let c = Vec3::new(
+            (index % nx) as f32,
+            ((index / nx) % ny) as f32,
+            (index / (nx * ny)) as f32,
+        );
+        self.origin + self.spacing * c
+    }
+
     pub fn bounds(&self) -> (Vec3, Vec3) {
         let d = Vec3::new(
             self.dims[0] as f32,

@@ -6,6 +6,7 @@ pub mod layers;
 pub mod quadrature;
 pub mod render;
 pub mod twins;
+pub mod vdb;
 
 use std::path::{Path, PathBuf};
 

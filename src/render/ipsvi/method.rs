@@ -51,7 +51,8 @@ const SCATTERING: ParamSpec = ParamSpec {
             },
             Choice {
                 name: "transport",
-                doc: "Also light scattered before, solved on the volume's grid by discrete                       ordinates (the `multiple` reference's model, 8 bounces)",
+                doc: "Also light scattered before, solved on the volume's grid by discrete \
+                      ordinates (the `multiple` reference's model, 8 bounces)",
             },
         ],
     },

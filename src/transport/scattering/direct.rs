@@ -11,6 +11,7 @@ use crate::lights::{incident, Light};
 use crate::progress::Progress;
 use crate::transport::directions::Ordinates;
 use crate::transport::medium::Medium;
+use crate::volume::Volume;
 use glam::Vec3;
 use rayon::prelude::*;
 
@@ -25,33 +26,13 @@ pub struct Direct {
 
 pub fn direct(medium: &Medium, light: &Light, progress: &dyn Progress) -> Result<Direct> {
     let grid = &medium.extinction;
-    let cells = grid.values().len();
-    let transmittance = match *light {
-        Light::Directional { to_light, .. } => {
-            let sun = Ordinates::single(to_light.normalize(), grid.spacing());
-            crate::transport::cpu::visibility(grid, &sun, progress)?.into_values()
-        }
-        Light::Point { position, .. } => (0..cells)
-            .into_par_iter()
-            .map(|cell| march(medium, medium.centre(cell), position))
-            .collect(),
-        Light::Ambient { .. } => vec![0.0; cells],
-    };
-    let nearest = 0.5 * grid.spacing().min_element();
-    let (towards, irradiance) = (0..cells)
+    let transmittance = transmittance(grid, light, progress)?;
+    let nearest = nearest(grid);
+    let (towards, irradiance) = (0..transmittance.len())
         .into_par_iter()
-        .map(|cell| {
-            let x = medium.centre(cell);
-            let seen_from = match *light {
-                Light::Point { position, .. } if (position - x).length() < nearest => {
-                    position - (position - x).normalize_or(Vec3::Z) * nearest
-                }
-                _ => x,
-            };
-            match incident(light, seen_from) {
-                Some((to, e)) => (to, e * transmittance[cell]),
-                None => (Vec3::Z, Vec3::ZERO),
-            }
+        .map(|cell| match reaching(light, grid.centre(cell), nearest) {
+            Some((to, e)) => (to, e * transmittance[cell]),
+            None => (Vec3::Z, Vec3::ZERO),
         })
         .unzip();
     Ok(Direct {
@@ -60,9 +41,42 @@ pub fn direct(medium: &Medium, light: &Light, progress: &dyn Progress) -> Result
     })
 }
 
+/// The transmittance of `light` from where it enters `grid` (sigma_t per world unit at each
+/// cell centre) to each cell's centre; 0 for ambient light, which has no one direction.
+pub fn transmittance(grid: &Volume, light: &Light, progress: &dyn Progress) -> Result<Vec<f32>> {
+    let cells = grid.values().len();
+    Ok(match *light {
+        Light::Directional { to_light, .. } => {
+            let sun = Ordinates::single(to_light.normalize(), grid.spacing());
+            crate::transport::cpu::visibility(grid, &sun, progress)?.into_values()
+        }
+        Light::Point { position, .. } => (0..cells)
+            .into_par_iter()
+            .map(|cell| march(grid, grid.centre(cell), position))
+            .collect(),
+        Light::Ambient { .. } => vec![0.0; cells],
+    })
+}
+
+/// How near a lamp a cell of `grid` is taken to be at most: half its smallest side.
+pub fn nearest(grid: &Volume) -> f32 {
+    0.5 * grid.spacing().min_element()
+}
+
+/// The direction towards `light` and its unattenuated irradiance at cell centre `x`, a lamp
+/// taken at `nearest` at least (see [`Direct`]).
+pub fn reaching(light: &Light, x: Vec3, nearest: f32) -> Option<(Vec3, Vec3)> {
+    let seen_from = match *light {
+        Light::Point { position, .. } if (position - x).length() < nearest => {
+            position - (position - x).normalize_or(Vec3::Z) * nearest
+        }
+        _ => x,
+    };
+    incident(light, seen_from)
+}
+
 /// Transmittance from `x` to `lamp` through the medium, within the grid's box.
-fn march(medium: &Medium, x: Vec3, lamp: Vec3) -> f32 {
-    let grid = &medium.extinction;
+fn march(grid: &Volume, x: Vec3, lamp: Vec3) -> f32 {
     let to = lamp - x;
     let distance = to.length();
     if distance <= 0.0 {
