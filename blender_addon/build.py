@@ -32,6 +32,7 @@ SOURCES = (
     "operators/__init__.py",
     "operators/jobs.py",
     "operators/volume.py",
+    "operators/bake.py",
     "operators/series.py",
     "operators/render.py",
     "truth.py",

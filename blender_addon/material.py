@@ -17,7 +17,9 @@ Plain data API (no operators), so it works headless."""
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
+from dataclasses import dataclass
 
 import bpy
 from occlux.blender.material import box_mask, color_ramp
@@ -25,6 +27,10 @@ from occlux.blender.material import box_mask, color_ramp
 AO_SHADINGS = ("AMBIENT", "ALBEDO")
 AO_FACTOR = "Occlux AO factor"
 AMBIENT = "Occlux ambient light"
+# The baked material's colour nodes of the world's light and of each baked lamp's, driven by
+# the world's and the lamp's own settings.
+BAKED_WORLD = "Occlux baked world light"
+BAKED_LAMP = "Occlux baked light {}"
 # The world's Mix Shader that keeps its light from everything but camera rays.
 CAMERA_ONLY = "Occlux world for camera rays only"
 
@@ -105,34 +111,8 @@ def volume_material(
     AMBIENT (for AMBIENT shading)."""
     if ao is not None and ao not in AO_SHADINGS:
         raise ValueError(f"ao shading '{ao}': expected one of {', '.join(AO_SHADINGS)}")
-    material = bpy.data.materials.new(name)
-    material.cycles.volume_interpolation = "LINEAR"  # trilinear, as Occlux samples
-    tree = material.node_tree
-    tree.nodes.clear()
-    shader = tree.nodes.new("ShaderNodeVolumePrincipled")
-    # Density and colour come from the `value` grid through the points: a grid named `density`
-    # would otherwise multiply the density, and `color` the colour.
-    shader.inputs["Density Attribute"].default_value = ""
-    shader.inputs["Color Attribute"].default_value = ""
-    shader.inputs["Absorption Color"].default_value = (0.0, 0.0, 0.0, 1.0)
-    shader.inputs["Blackbody Intensity"].default_value = 0.0
-    shader.inputs["Emission Strength"].default_value = 1.0
-    output = tree.nodes.new("ShaderNodeOutputMaterial")
-    tree.links.new(shader.outputs["Volume"], output.inputs["Volume"])
-
-    emitted = None
-    if points is None:  # a 2D transfer function: the classified `density` grid, grey
-        density = tree.nodes.new("ShaderNodeAttribute")
-        density.attribute_type = "GEOMETRY"
-        density.attribute_name = "density"
-        sigma_t = density.outputs["Fac"]
-        albedo = _grey(tree, 0.8)
-    else:
-        sigma_t, albedo, emitted = _classified(tree, points)
-    inside = box_mask(tree, box)
-    sigma_t = _math(tree, "MULTIPLY", sigma_t, inside)
-    if emitted is not None:
-        emitted = _colour(tree, "MULTIPLY", emitted, _as_colour(tree, inside))
+    material, tree, shader = _principled(name)
+    sigma_t, albedo, emitted = _medium(tree, points, box)
     tree.links.new(sigma_t, shader.inputs["Density"])
 
     if ao is not None:
@@ -169,6 +149,190 @@ def volume_material(
     else:
         tree.links.new(emitted, shader.inputs["Emission Color"])
     return material
+
+
+@dataclass(frozen=True)
+class BakedLamp:
+    """A lamp a bake holds (`occlux.bake`): its object's name, its light type (SUN or POINT),
+    its grid of the light reaching each voxel per unit strength and, when baked, its grids of
+    multiply scattered light per unit strength (red, green, blue)."""
+
+    name: str
+    kind: str
+    grid: str
+    multiple: tuple[str, str, str] | None
+
+
+# A point lamp of power P watts has radiant intensity P / (4 pi) per unit colour (scenes.lamp),
+# and a baked lamp's single scattering is strength x `grid` / (4 pi) for an isotropic phase.
+INV_4PI = 0.25 / math.pi
+
+
+def baked_material(
+    name: str,
+    points: Sequence[Point] | None,
+    box: tuple[Rgb, Rgb],
+    world: bpy.types.World | None,
+    lamps: Sequence[BakedLamp],
+) -> bpy.types.Material:
+    """The material of a baked volume (Bake Light): Occlux's classification as in
+    `volume_material`, a pure absorber (no scattering colour: Cycles and EEVEE trace no light in
+    it) that emits the baked light, sigma_t * albedo * (L_world * ao + sum over the lamps of
+    strength * colour * (grid / 4 pi + multiple)), plus the transfer function's emission. The
+    world's radiance (colour node BAKED_WORLD) and each lamp's strength and colour (BAKED_LAMP)
+    are driven by the world's Background node and the lamp's data, so they are read whenever
+    the material renders; changing them needs no new bake."""
+    material, tree, shader = _principled(name)
+    sigma_t, albedo, emitted = _medium(tree, points, box)
+    tree.links.new(sigma_t, shader.inputs["Density"])
+    shader.inputs["Color"].default_value = (0.0, 0.0, 0.0, 1.0)
+    visible = _as_colour(tree, _grid(tree, "ao"))
+    light = _colour(tree, "MULTIPLY", _world_light(tree, world), visible)
+    for lamp in lamps:
+        light = _colour(tree, "ADD", light, _lamp_light(tree, lamp))
+    scattered = _colour(tree, "MULTIPLY", albedo, light)
+    scattered = _colour(tree, "MULTIPLY", scattered, _as_colour(tree, sigma_t))
+    emitted = scattered if emitted is None else _colour(tree, "ADD", emitted, scattered)
+    tree.links.new(emitted, shader.inputs["Emission Color"])
+    return material
+
+
+def _grid(tree: bpy.types.NodeTree, name: str):
+    """The float socket of grid `name`."""
+    node = tree.nodes.new("ShaderNodeAttribute")
+    node.attribute_type = "GEOMETRY"
+    node.attribute_name = name
+    return node.outputs["Fac"]
+
+
+def _driven_colour(tree: bpy.types.NodeTree, label: str, drive) -> bpy.types.NodeSocket:
+    """A colour node `label` whose three channels `drive(socket, channel)` drives."""
+    node = tree.nodes.new("ShaderNodeRGB")
+    node.name = node.label = label
+    node.outputs[0].default_value = (0.0, 0.0, 0.0, 1.0)
+    for channel in range(3):
+        drive(node.outputs[0], channel)
+    return node.outputs[0]
+
+
+def _driver(socket, channel: int, expression: str, targets: Sequence[tuple]) -> None:
+    """Drives `channel` of `socket`'s value by `expression` of the (variable, id type, id, data
+    path) `targets`. Expressions of products of variables and numbers are Blender's simple
+    expressions: they run without Python, with auto-run scripts off."""
+    driver = socket.driver_add("default_value", channel).driver
+    driver.type = "SCRIPTED"
+    for variable, id_type, owner, path in targets:
+        var = driver.variables.new()
+        var.name, var.type = variable, "SINGLE_PROP"
+        var.targets[0].id_type = id_type
+        var.targets[0].id = owner
+        var.targets[0].data_path = path
+    driver.expression = expression
+
+
+def world_shader(world: bpy.types.World) -> bpy.types.Node | None:
+    """The node whose shader lights the world (behind a CAMERA_ONLY mix, which keeps an AO
+    material's world from all but camera rays: still the scene's ambient light), None for a
+    world without nodes or output."""
+    tree = world.node_tree
+    output = tree and next((n for n in tree.nodes if n.bl_idname == "ShaderNodeOutputWorld"), None)
+    if output is None or not output.inputs["Surface"].links:
+        return None
+    node = output.inputs["Surface"].links[0].from_node
+    if node.name == CAMERA_ONLY and node.inputs[2].links:
+        node = node.inputs[2].links[0].from_node
+    return node
+
+
+def _world_light(tree: bpy.types.NodeTree, world: bpy.types.World | None):
+    """The world's radiance, driven by its Background node's colour and strength (or its
+    colour, without nodes; `scenes.world_radiance` has refused any other world); black without
+    a world."""
+    if world is None:
+        return _grey(tree, 0.0)
+    background = world_shader(world)
+
+    def drive(socket, channel: int) -> None:
+        if background is None:
+            _driver(socket, channel, "c", [("c", "WORLD", world, f"color[{channel}]")])
+            return
+        node = f'node_tree.nodes["{background.name}"]'
+        _driver(
+            socket,
+            channel,
+            "c * s",
+            [
+                ("c", "WORLD", world, f"{node}.inputs[0].default_value[{channel}]"),
+                ("s", "WORLD", world, f"{node}.inputs[1].default_value"),
+            ],
+        )
+
+    return _driven_colour(tree, BAKED_WORLD, drive)
+
+
+def _lamp_light(tree: bpy.types.NodeTree, lamp: BakedLamp):
+    """A baked lamp's light at each point: strength x colour (driven by the lamp's data) times
+    its single scattering per unit strength (`grid` / 4 pi) plus its multiple scattering."""
+    data = bpy.data.objects[lamp.name].data
+    # A sun's strength is its irradiance; a point lamp's power P has intensity P / (4 pi).
+    per_unit = "" if lamp.kind == "SUN" else f" * {INV_4PI!r}"
+
+    def drive(socket, channel: int) -> None:
+        targets = [
+            ("c", "LIGHT", data, f"color[{channel}]"),
+            ("e", "LIGHT", data, "energy"),
+        ]
+        _driver(socket, channel, f"c * e{per_unit}", targets)
+
+    strength = _driven_colour(tree, BAKED_LAMP.format(lamp.name), drive)
+    once = _as_colour(tree, _math(tree, "MULTIPLY", _grid(tree, lamp.grid), INV_4PI))
+    if lamp.multiple is not None:
+        channels = tree.nodes.new("ShaderNodeCombineColor")
+        for socket, grid in zip(channels.inputs[:3], lamp.multiple, strict=True):
+            tree.links.new(_grid(tree, grid), socket)
+        once = _colour(tree, "ADD", once, channels.outputs["Color"])
+    return _colour(tree, "MULTIPLY", strength, once)
+
+
+def _principled(name: str):
+    """A new material `name` whose Principled Volume (no grids of its own, black absorption
+    colour, no blackbody, emission strength 1) feeds the Volume output: (material, tree,
+    shader)."""
+    material = bpy.data.materials.new(name)
+    material.cycles.volume_interpolation = "LINEAR"  # trilinear, as Occlux samples
+    tree = material.node_tree
+    tree.nodes.clear()
+    shader = tree.nodes.new("ShaderNodeVolumePrincipled")
+    # Density and colour come from the `value` grid through the points: a grid named `density`
+    # would otherwise multiply the density, and `color` the colour.
+    shader.inputs["Density Attribute"].default_value = ""
+    shader.inputs["Color Attribute"].default_value = ""
+    shader.inputs["Absorption Color"].default_value = (0.0, 0.0, 0.0, 1.0)
+    shader.inputs["Blackbody Intensity"].default_value = 0.0
+    shader.inputs["Emission Strength"].default_value = 1.0
+    output = tree.nodes.new("ShaderNodeOutputMaterial")
+    tree.links.new(shader.outputs["Volume"], output.inputs["Volume"])
+    return material, tree, shader
+
+
+def _medium(tree: bpy.types.NodeTree, points: Sequence[Point] | None, box: tuple[Rgb, Rgb]):
+    """Occlux's classification within the volume's `box`: sockets sigma_t, albedo and the
+    transfer function's emission (None without any); for a 2D transfer function (`points`
+    None) the classified `density` grid and a grey albedo."""
+    emitted = None
+    if points is None:
+        density = tree.nodes.new("ShaderNodeAttribute")
+        density.attribute_type = "GEOMETRY"
+        density.attribute_name = "density"
+        sigma_t = density.outputs["Fac"]
+        albedo = _grey(tree, 0.8)
+    else:
+        sigma_t, albedo, emitted = _classified(tree, points)
+    inside = box_mask(tree, box)
+    sigma_t = _math(tree, "MULTIPLY", sigma_t, inside)
+    if emitted is not None:
+        emitted = _colour(tree, "MULTIPLY", emitted, _as_colour(tree, inside))
+    return sigma_t, albedo, emitted
 
 
 def _grey(tree: bpy.types.NodeTree, value: float):
@@ -239,10 +403,10 @@ def all_rays(world: bpy.types.World) -> None:
 
 
 def carries_ambient(shading: bpy.types.Material | None) -> bool:
-    """Whether a material emits the world's light as AMBIENT shading does (then the world must
-    light only camera rays)."""
+    """Whether a material emits the world's light, as AMBIENT shading and a bake do (then the
+    world must light only camera rays)."""
     tree = None if shading is None else shading.node_tree
-    return tree is not None and AMBIENT in tree.nodes
+    return tree is not None and (AMBIENT in tree.nodes or BAKED_WORLD in tree.nodes)
 
 
 def without_ao(shading: bpy.types.Material, g: float) -> None:

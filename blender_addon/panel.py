@@ -4,6 +4,9 @@ from __future__ import annotations
 
 import bpy
 
+from . import scenes
+from .operators.bake import EEVEE_BEFORE, outdated
+
 
 class VIEW3D_PT_occlux(bpy.types.Panel):
     bl_label = "Occlux"
@@ -43,6 +46,14 @@ class VIEW3D_PT_occlux(bpy.types.Panel):
         column.prop(settings, "ao_shading")
         column.prop(settings, "ao_factor")
         layout.operator("occlux.compute_ao", icon="SHADING_RENDERED")
+        layout.separator()
+        layout.prop(settings, "bake_multiple")
+        layout.operator("occlux.bake_light", icon="LIGHT_SUN")
+        why = outdated(context, scenes.volume_object(context))
+        if why:
+            layout.label(text=f"Bake again: {why}", icon="ERROR")
+        if EEVEE_BEFORE in context.scene:
+            layout.operator("occlux.restore_eevee", icon="LOOP_BACK")
         layout.separator()
         column = layout.column(align=True)
         column.prop(settings, "dos_theta_deg")

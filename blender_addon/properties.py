@@ -205,6 +205,12 @@ class OccluxSettings(bpy.types.PropertyGroup):
         default=1.0,
         update=_update_ao_factor,
     )
+    bake_multiple: bpy.props.BoolProperty(
+        name="Multiple scattering",
+        description="Bake Light also bakes each lamp's multiply scattered light (8 bounces, "
+        "solved on the volume's grid; the phase asymmetry is IPSVI's g)",
+        default=True,
+    )
     dos_theta_deg: _registry_float("Cone angle", DOS["theta_deg"], precision=1)  # max 89.9
     dos_grid: IntProperty(
         name="Cone samples",

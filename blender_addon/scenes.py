@@ -15,7 +15,7 @@ from typing import Any
 import bpy
 import occlux
 
-from .material import CAMERA_ONLY
+from .material import world_shader
 
 # The add-on maps the world to an ambient light, sun lamps to directional lights and point lamps
 # to point lights; these are the kinds of the registry's `lights` it can give a method.
@@ -171,15 +171,9 @@ def world_radiance(scene: bpy.types.Scene) -> tuple[float, float, float]:
     world = scene.world
     if world is None:
         return (0.0, 0.0, 0.0)
-    tree = world.node_tree
-    output = tree and next((n for n in tree.nodes if n.bl_idname == "ShaderNodeOutputWorld"), None)
-    if output is None or not output.inputs["Surface"].links:
+    background = world_shader(world)
+    if background is None:
         return tuple(world.color)
-    background = output.inputs["Surface"].links[0].from_node
-    if background.name == CAMERA_ONLY and background.inputs[2].links:
-        # The world kept from all but camera rays by an AMBIENT-shaded AO material (whose
-        # emission carries its light): still the scene's ambient light.
-        background = background.inputs[2].links[0].from_node
     colour, strength = background.inputs["Color"], background.inputs["Strength"]
     if background.bl_idname != "ShaderNodeBackground" or colour.links or strength.links:
         raise ValueError(

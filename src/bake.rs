@@ -93,15 +93,33 @@ pub struct Baked {
 impl Baked {
     /// Every grid by name, in order: `ao`, then per light `light{i}` and its multiple grids.
     pub fn grids(&self) -> Vec<(String, &Volume)> {
-        let mut grids = vec![(AO.to_owned(), &self.ao)];
-        for (i, baked) in self.lights.iter().enumerate() {
-            grids.push((light_grid(i), &baked.reaching));
-            if let Some(multiple) = &baked.multiple {
-                grids.extend(multiple_grids(i).into_iter().zip(multiple));
-            }
-        }
-        grids
+        named(
+            &self.ao,
+            self.lights
+                .iter()
+                .map(|l| (&l.reaching, l.multiple.as_ref().map(|m| m.each_ref()))),
+        )
     }
+
+    /// [`Baked::grids`], owned.
+    pub fn into_grids(self) -> Vec<(String, Volume)> {
+        named(
+            self.ao,
+            self.lights.into_iter().map(|l| (l.reaching, l.multiple)),
+        )
+    }
+}
+
+/// `ao`, then per light its reaching light and its multiple grids, named.
+fn named<V>(ao: V, lights: impl Iterator<Item = (V, Option<[V; 3]>)>) -> Vec<(String, V)> {
+    let mut grids = vec![(AO.to_owned(), ao)];
+    for (i, (reaching, multiple)) in lights.enumerate() {
+        grids.push((light_grid(i), reaching));
+        if let Some(multiple) = multiple {
+            grids.extend(multiple_grids(i).into_iter().zip(multiple));
+        }
+    }
+    grids
 }
 
 /// The light a unit of `light`'s strength is: white, irradiance 1 for a sun and intensity 1

@@ -1,5 +1,6 @@
 """The add-on's operators, one module per family: `volume` (load a volume, compute its ambient
-occlusion), `render` (method renders: DOS and IPSVI), `check` (the check against Cycles),
+occlusion), `bake` (Bake Light: the scene's light baked into grids and a material that emits
+it), `render` (method renders: DOS and IPSVI), `check` (the check against Cycles),
 `composite` (an Occlux EXR layer in the compositor), `stage` (Import Occlux Stage: a USD stage
 with its render size and camera, also in File > Import) and `series` (Load Series: the VDBs of
 `occlux series` as one animated Volume object). The long ones are jobs, framed by `jobs`
@@ -10,10 +11,11 @@ from __future__ import annotations
 
 import bpy
 
-from . import check, composite, jobs, render, series, stage, volume
+from . import bake, check, composite, jobs, render, series, stage, volume
 
 CLASSES = (
     volume.CLASSES
+    + bake.CLASSES
     + series.CLASSES
     + render.CLASSES
     + check.CLASSES

@@ -195,9 +195,14 @@ def show_volume(
 
 
 def show(
-    context: bpy.types.Context, shown: Shown, ao: str | None, target: bpy.types.Object | None
+    context: bpy.types.Context,
+    shown: Shown,
+    ao: str | None,
+    target: bpy.types.Object | None,
+    shading: Callable[[str], bpy.types.Material] | None = None,
 ) -> bpy.types.Object:
-    """The Volume object shows the VDB with the Occlux material (AO-shaded by `ao`): `target`
+    """The Volume object shows the VDB with the Occlux material (AO-shaded by `ao`; or the one
+    `shading` makes, given its name): `target`
     (the object the operator acted on), else the object of the same name that carries the same
     mark, else a new one. An existing object keeps its transform, visibility and name; its
     previous data and material go if nothing else uses them. The object is made active and
@@ -222,10 +227,13 @@ def show(
         raise OSError(f"Blender cannot read {shown.vdb}: {error}")
     if shown.sequence is not None:
         show_sequence(context.scene, data, shown.sequence)
-    shading = material.volume_material(
-        f"Occlux {name}", shown.points, ao, context.scene.occlux.ao_factor, ambient, shown.box
-    )
-    data.materials.append(shading)
+    if shading is None:
+        made = material.volume_material(
+            f"Occlux {name}", shown.points, ao, context.scene.occlux.ao_factor, ambient, shown.box
+        )
+    else:
+        made = shading(f"Occlux {name}")
+    data.materials.append(made)
     obj = target
     if obj is None:
         same = bpy.data.objects.get(name)
@@ -237,7 +245,7 @@ def show(
     else:
         previous, obj.data = obj.data, data
         release(previous)
-        shading.name = f"Occlux {name}"  # the released material's name, free again
+        made.name = f"Occlux {name}"  # the released material's name, free again
     obj[shown.mark] = shown.setting
     # A material of AMBIENT shading carries the world's light, so the world lights only camera
     # rays while one shows; otherwise (e.g. shading switched to ALBEDO) it lights every ray.

@@ -5,6 +5,7 @@
 
 mod ao;
 mod arrays;
+mod bake;
 mod classification;
 mod errors;
 mod export;
@@ -51,6 +52,7 @@ fn _occlux(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(export::stage_description, m)?)?;
     m.add_function(wrap_pyfunction!(export::export, m)?)?;
     m.add_function(wrap_pyfunction!(ao::ao_volume, m)?)?;
+    m.add_function(wrap_pyfunction!(bake::bake, m)?)?;
     m.add_function(wrap_pyfunction!(methods, m)?)?;
     m.add_function(wrap_pyfunction!(series::series_plan, m)?)?;
     m.add_function(wrap_pyfunction!(series::series_frame, m)?)?;

@@ -379,6 +379,40 @@ def test_ao_volume_twins_agree_and_read_back_in_openvdb(
     np.testing.assert_array_equal(read, ao.transpose(2, 1, 0))
 
 
+def test_bake_holds_the_visibility_and_each_light_and_reads_back_in_openvdb(
+    tmp_path: Path, openvdb
+) -> None:
+    scene = occlux.Scene.from_toml(scene_text())
+    volume = scene.load_volume()
+    baked = occlux.bake(scene, directions=16, g=0.3, device="cpu")
+    # The ambient light takes no grid of its own; the sun is light 0.
+    assert list(baked) == [
+        "ao",
+        "light0",
+        "light0_multiple_r",
+        "light0_multiple_g",
+        "light0_multiple_b",
+    ]
+    ao = occlux.ao_volume(scene, directions=16, device="cpu")["ao"].values
+    np.testing.assert_array_equal(baked["ao"].values, ao)
+    reaching = baked["light0"].values
+    assert reaching.shape == volume.values.shape
+    # Per unit irradiance: 1 where nothing lies between a voxel and the sun, less behind matter.
+    assert 0.0 < reaching.min() < 0.5 and reaching.max() == pytest.approx(1.0, abs=1e-6)
+    multiple = baked["light0_multiple_r"].values
+    assert multiple.min() >= 0.0 and multiple.max() > 0.0
+    path = tmp_path / "bake.vdb"
+    occlux.write_vdb(path, baked)
+    grids = {grid.name: grid for grid in openvdb.readAll(str(path))[0]}
+    read = np.zeros(baked["light0"].dims, np.float32)
+    grids["light0"].copyToArray(read)
+    np.testing.assert_array_equal(read, reaching.transpose(2, 1, 0))
+    with pytest.raises(occlux.OccluxError, match="directions"):
+        occlux.bake(scene, directions=0, device="cpu")
+    with pytest.raises(occlux.OccluxError, match="cancelled"):
+        occlux.bake(scene, device="cpu", progress=lambda done, total: False)
+
+
 def test_ao_volume_refuses_bad_arguments_and_cancels() -> None:
     scene = occlux.Scene.from_toml(scene_text())
     with pytest.raises(occlux.OccluxError, match="median"):

@@ -390,6 +390,25 @@ def ao_volume(
     shades; VAO: min(1, 2F) of the paper's openness F) or ``"raw"`` (VAO's estimators only: F
     itself, 1/2 in empty space and on a flat interface)."""
 
+def bake(
+    scene: Scene,
+    directions: int = 64,
+    multiple: bool = True,
+    g: float = 0.0,
+    device: _Device = "auto",
+    volume: Volume | None = None,
+    progress: Callable[[int, int], object] | None = None,
+) -> dict[str, Volume]:
+    """What ``occlux bake`` computes: the light of ``scene`` baked into grids a renderer shades
+    with, without tracing shadows, each per unit strength of its light: ``"ao"`` (the ambient
+    visibility by ``directions`` discrete ordinates), then per sun or lamp ``i`` of the scene's
+    lights (in order, ambient lights skipped) ``"light{i}"`` (the irradiance reaching each voxel
+    per unit strength: the transmittance for a sun, transmittance / r^2 for a lamp) and, with
+    ``multiple``, ``"light{i}_multiple_r"``, ``"_g"``, ``"_b"`` (its multiply scattered light
+    per unit strength, Henyey-Greenstein ``g``, on the solver's coarser grid), ready for
+    :func:`write_vdb`. Emission per unit length sigma_s (world x ao + sum_i strength_i
+    colour_i (light{i} / 4 pi + light{i}_multiple)) renders the baked light."""
+
 def methods() -> list[dict[str, Any]]:
     """The rendering methods a scene's ``render.method`` can name (the core's registry): each
     with ``name``, ``summary``, ``module``, ``shaders``, ``lights`` (those it renders),

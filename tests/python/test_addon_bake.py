@@ -1,0 +1,180 @@
+"""Bake Light in the Blender extension, headless (bpy in a subprocess, the extension built,
+installed and enabled as in test_addon.py): the scene's light baked into the volume's grids and
+a material that emits it, rendered by Cycles and EEVEE against Cycles' path-traced truth of the
+same Blender scene, and what the bake changes in the scene (light linking, the world, EEVEE's
+settings, the drivers that keep strengths and colours live).
+
+The truth is the volume with its plain material (Load Volume's) lit by Cycles itself: under
+the sun with 8 volume bounces (the bake holds the sun's single and multiple scattering), under
+the world alone with none (the bake's `ao` is the world's single scattering)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+from test_addon import CAMERA_AND_WORLD, SUN, blender, phantom_npy
+
+SIZE = (64, 48)
+TRUTH_SPP, TRUTH_SEEDS = 256, 8
+
+
+def bake_script(tmp_path: Path, lighting: str) -> str:
+    world_strength = 1.0 if lighting == "world" else 0.0
+    lamps = SUN if lighting == "sun" else ""
+    bounces = 8 if lighting == "sun" else 0
+    kinds = ("directional",) if lighting == "sun" else ("ambient",)
+    return (
+        CAMERA_AND_WORLD
+        + lamps
+        + f"""
+import time
+import numpy as np
+import occlux
+import occlux.blender as ob
+from occlux.blender.bundled import bundled_module
+scenes = sys.modules["bl_ext.user_default.occlux.scenes"]
+background.inputs["Strength"].default_value = {world_strength}
+scene.render.resolution_x, scene.render.resolution_y = {SIZE}
+s = scene.occlux
+s.volume_path = {str(phantom_npy(tmp_path))!r}
+s.preset, s.device, s.output_dir = "ct-soft-tissue", "cpu", {str(tmp_path / "out") + "/"!r}
+result["load"] = list(bpy.ops.occlux.import_volume())
+obj = bpy.context.view_layer.objects.active
+# The volume's pixels: where Occlux's render of the same scene has coverage.
+render = {{"method": "ipsvi"}} if {lighting!r} == "sun" else {{"method": "ao", "direct": False}}
+described = scenes.scene_tree(bpy.context, scenes.selected_source(bpy.context), *{SIZE},
+                              {kinds!r}, render=render)
+inside = np.asarray(occlux.render(scenes.build(described.tree), device="cpu").beauty)[..., 3] > 0.05
+result["pixels"] = int(inside.sum())
+ob.cycles_settings(scene, {bounces})
+truth = ob.render_scene(scene, {TRUTH_SPP}, {TRUTH_SEEDS})
+scale = truth.mean[inside].mean()
+result["truth_noise"] = float(np.sqrt(np.mean(truth.stderr[inside] ** 2)) / scale)
+
+def error(image):
+    diff = image[inside] - truth.mean[inside]
+    return [float(np.sqrt(np.mean(diff ** 2)) / scale), float(image[inside].mean() / scale - 1)]
+
+started = time.perf_counter()
+result["bake"] = list(bpy.ops.occlux.bake_light())
+result["bake_s"] = time.perf_counter() - started
+result["grids"] = sorted(obj.data.grids.keys())
+result["material"] = sorted(n.name for n in obj.active_material.node_tree.nodes
+                            if n.name.startswith("Occlux baked"))
+# The bake's own Cycles setting (ray marching: no light is traced in the volume), which the
+# harness's settings would reset.
+result["volume_biased"] = scene.cycles.volume_biased
+for spp in (2, 4, 16):
+    ob.cycles_settings(scene, {bounces})
+    scene.cycles.volume_biased = result["volume_biased"]
+    started = time.perf_counter()
+    image = ob.render_scene(scene, spp, 2)
+    result[f"cycles_{{spp}}"] = error(image.mean) + [time.perf_counter() - started]
+ob.cycles_settings(scene, {bounces})
+scene.render.engine = "BLENDER_EEVEE"
+scene.eevee.taa_render_samples = 16
+path = {str(tmp_path / "eevee.exr")!r}
+scene.render.filepath = path
+started = time.perf_counter()
+assert bpy.ops.render.render(write_still=True) == {{"FINISHED"}}
+seconds = time.perf_counter() - started
+oiio = bundled_module("OpenImageIO")
+image = oiio.ImageInput.open(path)
+eevee = image.read_image(format="float")[..., :3].astype(np.float64)
+image.close()
+result["eevee"] = error(eevee) + [seconds]
+result["eevee_settings"] = [scene.eevee.volumetric_tile_size, scene.eevee.volumetric_samples]
+"""
+    )
+
+
+@pytest.mark.parametrize("lighting", ["sun", "world"])
+def test_bake_light_renders_in_cycles_and_eevee_what_cycles_path_traces(
+    extension: Path, tmp_path: Path, lighting: str
+) -> None:
+    """Errors over the volume's pixels against Cycles' truth (relative RMSE, bias). Cycles with
+    the bake traces no light in the volume (it only absorbs and emits), so 4 samples are near
+    its converged image; EEVEE's froxels (1 pixel, 256 slices, set by the bake) blur the
+    baked light along and across the view. Measured on this phantom (truth noise 0.050 under
+    the sun, 0.069 under the world): Cycles with the bake at 2, 4 and 16 samples 0.054 (-0.4 %)
+    and 0.070 (-1.5 %) at every count, EEVEE 0.062 (-1.3 %) and 0.076 (-1.7 %); the bounds
+    below add the truth's noise to the issue's goals."""
+    result, output = blender(extension, tmp_path / "user", bake_script(tmp_path, lighting))
+    print(result)
+    assert result["load"] == ["FINISHED"] and result["bake"] == ["FINISHED"], output
+    assert result["pixels"] > 500, result
+    lamp_grids = ["light0", "light0_multiple_b", "light0_multiple_g", "light0_multiple_r"]
+    wanted = sorted(["ao", "density", "value"] + (lamp_grids if lighting == "sun" else []))
+    assert result["grids"] == wanted, result["grids"]
+    noise = result["truth_noise"]
+    assert result["volume_biased"], result
+    assert noise < 0.08, result
+    rmse, bias, _ = result["cycles_4"]
+    assert rmse <= 0.05 + noise and abs(bias) <= 0.03, result
+    rmse, bias, _ = result["eevee"]
+    assert rmse <= 0.10 + noise and abs(bias) <= 0.05, result
+    # 64 x 48 pixels: 1-pixel froxels fit the froxel budget.
+    assert result["eevee_settings"] == ["1", 256], result
+
+
+def test_bake_light_keeps_strengths_live_and_says_when_to_bake_again(
+    extension: Path, tmp_path: Path
+) -> None:
+    """What a bake changes in the scene and what it leaves live: the sun no longer lights the
+    volume (light linking), the world lights only camera rays, the material's colour nodes
+    follow the sun's strength and colour and the world's without a new bake, a moved sun is
+    reported, Restore EEVEE Settings undoes the bake's settings, and a scaled volume object is
+    refused with nothing changed."""
+    result, output = blender(
+        extension,
+        tmp_path / "user",
+        CAMERA_AND_WORLD
+        + SUN
+        + f"""
+bake = sys.modules["bl_ext.user_default.occlux.operators.bake"]
+scene.render.resolution_x, scene.render.resolution_y = 32, 24
+s = scene.occlux
+s.volume_path = {str(phantom_npy(tmp_path))!r}
+s.preset, s.device, s.output_dir = "ct-soft-tissue", "cpu", {str(tmp_path / "out") + "/"!r}
+s.bake_multiple = False
+bpy.ops.occlux.import_volume()
+obj = bpy.context.view_layer.objects.active
+tile_before = scene.eevee.volumetric_tile_size
+obj.scale = (2.0, 2.0, 2.0)
+result["scaled"] = attempt(bpy.ops.occlux.bake_light)
+result["scaled_mark"] = "occlux_bake" in obj
+obj.scale = (1.0, 1.0, 1.0)
+result["bake"] = attempt(bpy.ops.occlux.bake_light)
+collection = sun.light_linking.receiver_collection
+result["linked"] = [(m.name, c.light_linking.link_state)
+                    for m, c in zip(collection.objects, collection.collection_objects)]
+result["world"] = sorted(n.name for n in scene.world.node_tree.nodes)
+nodes = obj.active_material.node_tree.nodes
+def colours():
+    bpy.context.view_layer.update()
+    return [list(nodes["Occlux baked light Sun"].outputs[0].default_value)[:3],
+            list(nodes["Occlux baked world light"].outputs[0].default_value)[:3]]
+result["colours"] = colours()
+sun.data.energy, sun.data.color = 6.0, (0.5, 1.0, 1.0)
+background.inputs["Strength"].default_value = 2.0
+result["changed"] = colours()
+result["outdated"] = bake.outdated(bpy.context, obj)
+sun.rotation_quaternion = Vector((0.3, -1.0, 1.2)).to_track_quat("Z", "Y")
+bpy.context.view_layer.update()
+result["moved"] = bake.outdated(bpy.context, obj)
+result["tile"] = scene.eevee.volumetric_tile_size
+result["restore"] = attempt(bpy.ops.occlux.restore_eevee)
+result["restored"] = scene.eevee.volumetric_tile_size == tile_before
+""",
+    )
+    assert "unscaled" in result["scaled"] and not result["scaled_mark"], result
+    assert result["bake"] == ["FINISHED"], output
+    assert result["linked"] == [["phantom", "EXCLUDE"]], result
+    assert "Occlux world for camera rays only" in result["world"], result
+    sun, world = result["colours"]
+    assert sun == pytest.approx([3.0, 2.85, 2.7]) and world == pytest.approx([1.0, 0.9, 0.8])
+    sun, world = result["changed"]
+    assert sun == pytest.approx([3.0, 6.0, 6.0]) and world == pytest.approx([2.0, 1.8, 1.6])
+    assert result["outdated"] == "" and result["moved"] == "lamp 'Sun' moved", result
+    assert result["tile"] == "1" and result["restore"] == ["FINISHED"] and result["restored"]
