@@ -1,7 +1,6 @@
 //! `occlux.bake`: the baked light grids of a scene (src/bake.rs), as a dict of grids ready for
 //! `occlux.write_vdb`.
 
-use crate::py_err;
 use crate::render::{compute, scene_volume, with_progress};
 use crate::scene::PyScene;
 use crate::volume::PyVolume;
