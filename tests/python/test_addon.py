@@ -107,8 +107,8 @@ def test_the_extension_installs_registers_and_reloads(extension: Path, tmp_path:
         extension,
         tmp_path,
         """
-        ops = ("import_volume", "compute_ao", "render_dos", "render_ipsvi", "check_cycles",
-               "composite", "import_stage", "import_series")
+        ops = ("import_volume", "compute_ao", "bake_light", "restore_eevee", "render_dos",
+               "render_ipsvi", "check_cycles", "composite", "import_stage", "import_series")
         result["registered"] = [hasattr(bpy.ops.occlux, op) for op in ops]
         result["panel"] = hasattr(bpy.types, "VIEW3D_PT_occlux")
         result["settings"] = hasattr(bpy.types.Scene, "occlux")
@@ -141,14 +141,14 @@ def test_the_extension_installs_registers_and_reloads(extension: Path, tmp_path:
         result["drawn"] = len(drawn["props"]), sorted(drawn["ops"])
         """,
     )
-    assert result["registered"] == [True] * 8 and result["panel"] and result["settings"]
+    assert result["registered"] == [True] * 10 and result["panel"] and result["settings"]
     assert result["after_disable"] is False and result["after_reload"] is True
     assert result["unknown_props"] == [] and result["unknown_ops"] == [], result
     assert result["drawn"][0] > 20 and result["drawn"][1] == sorted(
         f"occlux.{op}"
         for op in (
-            "import_volume", "compute_ao", "render_dos", "render_ipsvi", "check_cycles",
-            "composite",
+            "import_volume", "compute_ao", "bake_light", "render_dos", "render_ipsvi",
+            "check_cycles", "composite",
             "import_stage",
             "import_series",
         )
