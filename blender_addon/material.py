@@ -97,7 +97,7 @@ def volume_material(
     points: Sequence[Point] | None,
     ao: str | None,
     ao_factor: float,
-    ambient: Rgb,
+    world: bpy.types.World | None,
     box: tuple[Rgb, Rgb],
 ) -> bpy.types.Material:
     """A Principled Volume with Occlux's classification of the `value` grid: Density = sigma_t,
@@ -107,8 +107,9 @@ def volume_material(
     voxel repeating the border, so Cycles' samples inside the box are Occlux's, and the medium
     ends at the box's faces as in Occlux); with an `ao`
     grid, shaded by `ao` (`AO_SHADINGS`, see the module) with the strength in the value node
-    AO_FACTOR (the panel's AO strength) and the world's radiance `ambient` in the colour node
-    AMBIENT (for AMBIENT shading)."""
+    AO_FACTOR (the panel's AO strength) and the radiance of `world` in the colour node AMBIENT
+    (for AMBIENT shading), driven by the world's own settings: read when the material renders,
+    so a world changed after Compute AO lights it as it is."""
     if ao is not None and ao not in AO_SHADINGS:
         raise ValueError(f"ao shading '{ao}': expected one of {', '.join(AO_SHADINGS)}")
     material, tree, shader = _principled(name)
@@ -129,16 +130,14 @@ def volume_material(
         tree.links.new(grid.outputs["Fac"], shade.inputs["B"])
         openness = shade.outputs["Result"]
         if ao == "AMBIENT":
-            light = tree.nodes.new("ShaderNodeRGB")
-            light.name = light.label = AMBIENT
-            light.outputs[0].default_value = (*ambient, 1.0)
+            light = _world_light(tree, world, AMBIENT)
             # sigma_t * albedo * L_world * openness: the ambient light each point scatters
             # towards the camera, seen by camera rays only (a ray cast after a scattering
             # would collect it again: Cycles scatters once even at 0 volume bounces, and
             # measured +65 % on the CT phantom without this).
             seen = tree.nodes.new("ShaderNodeLightPath").outputs["Is Camera Ray"]
             weight = _math(tree, "MULTIPLY", _math(tree, "MULTIPLY", sigma_t, openness), seen)
-            scattered = _colour(tree, "MULTIPLY", albedo, light.outputs[0])
+            scattered = _colour(tree, "MULTIPLY", albedo, light)
             scattered = _colour(tree, "MULTIPLY", scattered, _as_colour(tree, weight))
             emitted = scattered if emitted is None else _colour(tree, "ADD", emitted, scattered)
         else:
@@ -187,7 +186,7 @@ def baked_material(
     tree.links.new(sigma_t, shader.inputs["Density"])
     shader.inputs["Color"].default_value = (0.0, 0.0, 0.0, 1.0)
     visible = _as_colour(tree, _grid(tree, "ao"))
-    light = _colour(tree, "MULTIPLY", _world_light(tree, world), visible)
+    light = _colour(tree, "MULTIPLY", _world_light(tree, world, BAKED_WORLD), visible)
     for lamp in lamps:
         light = _colour(tree, "ADD", light, _lamp_light(tree, lamp))
     scattered = _colour(tree, "MULTIPLY", albedo, light)
@@ -244,12 +243,15 @@ def world_shader(world: bpy.types.World) -> bpy.types.Node | None:
     return node
 
 
-def _world_light(tree: bpy.types.NodeTree, world: bpy.types.World | None):
-    """The world's radiance, driven by its Background node's colour and strength (or its
-    colour, without nodes; `scenes.world_radiance` has refused any other world); black without
-    a world."""
+def _world_light(tree: bpy.types.NodeTree, world: bpy.types.World | None, label: str):
+    """The world's radiance in a colour node `label`, driven by its Background node's colour
+    and strength (or its colour, without nodes; `scenes.world_radiance` has refused any other
+    world); black without a world."""
     if world is None:
-        return _grey(tree, 0.0)
+        node = tree.nodes.new("ShaderNodeRGB")
+        node.name = node.label = label
+        node.outputs[0].default_value = (0.0, 0.0, 0.0, 1.0)
+        return node.outputs[0]
     background = world_shader(world)
 
     def drive(socket, channel: int) -> None:
@@ -267,7 +269,7 @@ def _world_light(tree: bpy.types.NodeTree, world: bpy.types.World | None):
             ],
         )
 
-    return _driven_colour(tree, BAKED_WORLD, drive)
+    return _driven_colour(tree, label, drive)
 
 
 def _lamp_light(tree: bpy.types.NodeTree, lamp: BakedLamp):
@@ -420,6 +422,11 @@ def without_ao(shading: bpy.types.Material, g: float) -> None:
     if AO_FACTOR in nodes:
         nodes[AO_FACTOR].outputs[0].default_value = 0.0
     if AMBIENT in nodes:
+        # Its drivers would bring the world's light back.
+        animation = shading.node_tree.animation_data
+        for fcurve in list(animation.drivers) if animation else []:
+            if fcurve.data_path.startswith(f'nodes["{AMBIENT}"]'):
+                animation.drivers.remove(fcurve)
         nodes[AMBIENT].outputs[0].default_value = (0.0, 0.0, 0.0, 1.0)
     for node in nodes:
         anisotropy = node.inputs.get("Anisotropy")

@@ -209,8 +209,8 @@ def show(
     selected. If Blender cannot read the file, or it lacks one of the grids, nothing changes
     (and an owned file is removed)."""
     name = shown.name
-    # Read before anything is added: a textured world is refused with nothing made.
-    ambient = scenes.world_radiance(context.scene) if ao == "AMBIENT" else (0.0, 0.0, 0.0)
+    if ao == "AMBIENT":  # before anything is added: a textured world is refused, nothing made
+        scenes.world_radiance(context.scene)
     data = bpy.data.volumes.new(name)
     data.filepath = str(shown.vdb)
     # Cycles reads the grids at full precision, none clipped as empty: Occlux's values.
@@ -229,7 +229,12 @@ def show(
         show_sequence(context.scene, data, shown.sequence)
     if shading is None:
         made = material.volume_material(
-            f"Occlux {name}", shown.points, ao, context.scene.occlux.ao_factor, ambient, shown.box
+            f"Occlux {name}",
+            shown.points,
+            ao,
+            context.scene.occlux.ao_factor,
+            context.scene.world,
+            shown.box,
         )
     else:
         made = shading(f"Occlux {name}")

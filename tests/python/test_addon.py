@@ -973,8 +973,8 @@ result["composite"] = list(bpy.ops.occlux.composite(filepath=s.last_exr, layer="
 def test_the_guides_script_makes_its_figure_on_the_factory_scene(tmp_path: Path) -> None:
     """docs/blender.md's script, run verbatim by docs/make_blender_figure.py on Blender's factory
     scene (its Cube, Light and Camera), ends with one volume object and a figure: the tooth
-    covers part of the frame, lit, on a transparent background; Render DOS on the way leaves
-    the sun out and says so."""
+    covers part of the frame, lit through Bake Light by the sky and the sun, on a transparent
+    background."""
     png = tmp_path / "figure.png"
     script = REPO / "docs" / "make_blender_figure.py"
     run = subprocess.run(
@@ -983,8 +983,7 @@ def test_the_guides_script_makes_its_figure_on_the_factory_scene(tmp_path: Path)
     )  # fmt: skip
     output = run.stdout + run.stderr
     assert run.returncode == 0, output
-    assert "AO (sweep-physical) of tooth.nrrd on 'tooth'" in output, output
-    assert "left out light 'Light' (sun)" in output, output
+    assert "baked the world and 1 lamp(s) into 'tooth'" in output, output
     assert "objects: Camera, Light, tooth" in run.stdout, run.stdout
     pixels = oiio_read(png)
     assert sorted(pixels) == ["A", "B", "G", "R"] and pixels["R"].shape == (320, 320)

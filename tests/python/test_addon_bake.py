@@ -178,3 +178,38 @@ result["restored"] = scene.eevee.volumetric_tile_size == tile_before
     assert sun == pytest.approx([3.0, 6.0, 6.0]) and world == pytest.approx([2.0, 1.8, 1.6])
     assert result["outdated"] == "" and result["moved"] == "lamp 'Sun' moved", result
     assert result["tile"] == "1" and result["restore"] == ["FINISHED"] and result["restored"]
+
+
+def test_the_ambient_ao_material_follows_the_world_set_after_compute_ao(
+    extension: Path, tmp_path: Path
+) -> None:
+    """The guide's order (Compute AO, then the world's colour): the material's ambient light is
+    the world's as it renders, not as it was when AO was computed; the Cycles check's copy
+    without AO keeps it black."""
+    result, output = blender(
+        extension,
+        tmp_path / "user",
+        CAMERA_AND_WORLD
+        + f"""
+material = sys.modules["bl_ext.user_default.occlux.material"]
+s = scene.occlux
+s.volume_path = {str(phantom_npy(tmp_path))!r}
+s.preset, s.device, s.output_dir = "ct-soft-tissue", "cpu", {str(tmp_path / "out") + "/"!r}
+s.ao_shading = "AMBIENT"
+background.inputs["Color"].default_value = (0.05, 0.05, 0.05, 1.0)
+result["op"] = list(bpy.ops.occlux.compute_ao())
+shading = bpy.context.view_layer.objects.active.active_material
+background.inputs["Color"].default_value = (0.6, 0.5, 0.4, 1.0)
+background.inputs["Strength"].default_value = 2.0
+bpy.context.view_layer.update()
+node = shading.node_tree.nodes[material.AMBIENT]
+result["ambient"] = list(node.outputs[0].default_value)[:3]
+truth = shading.copy()
+material.without_ao(truth, 0.0)
+bpy.context.view_layer.update()
+result["truth"] = list(truth.node_tree.nodes[material.AMBIENT].outputs[0].default_value)[:3]
+""",
+    )
+    assert result["op"] == ["FINISHED"], output
+    assert result["ambient"] == pytest.approx([1.2, 1.0, 0.8]), result
+    assert result["truth"] == [0.0, 0.0, 0.0], result
