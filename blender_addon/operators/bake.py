@@ -26,7 +26,7 @@ from mathutils import Vector
 
 from .. import material, scenes
 from .jobs import JobProgress, OccluxJob, output_dir
-from .volume import SOURCE, Loaded, Shown, show, write_grids
+from .volume import Loaded, dataset_shown, show, write_grids
 
 # The object's custom property holding what its bake saw (`fingerprint`).
 BAKED = "occlux_bake"
@@ -164,16 +164,7 @@ class OCCLUX_OT_bake_light(OccluxJob, bpy.types.Operator):
         grids = ("density", "value", "ao")
         for lamp in result.lamps:
             grids += (lamp.grid,) + (lamp.multiple or ())
-        shown = Shown(
-            name=loaded.source.stem,
-            vdb=loaded.vdb,
-            grids=grids,
-            points=loaded.classification.raw_points(loaded.volume),
-            box=loaded.volume.bounds,
-            mark=SOURCE,
-            setting=loaded.source.setting,
-            owned=True,
-        )
+        shown = dataset_shown(loaded, grids)
         target = bpy.data.objects.get(self._target)
 
         def shading(name: str) -> bpy.types.Material:

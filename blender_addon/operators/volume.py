@@ -181,7 +181,13 @@ def show_volume(
 ) -> bpy.types.Object:
     """The dataset's Volume object (`show`) for a VDB a job wrote."""
     grids = ("density", "value") + (() if ao is None else ("ao",))
-    shown = Shown(
+    return show(context, dataset_shown(loaded, grids), ao, target)
+
+
+def dataset_shown(loaded: Loaded, grids: tuple[str, ...]) -> Shown:
+    """What the dataset's object shows of a VDB a job wrote (the add-on's own file) holding
+    `grids`."""
+    return Shown(
         name=loaded.source.stem,
         vdb=loaded.vdb,
         grids=grids,
@@ -191,7 +197,6 @@ def show_volume(
         setting=loaded.source.setting,
         owned=True,
     )
-    return show(context, shown, ao, target)
 
 
 def show(
