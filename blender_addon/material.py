@@ -248,10 +248,9 @@ def _world_light(tree: bpy.types.NodeTree, world: bpy.types.World | None, label:
     and strength (or its colour, without nodes; `scenes.world_radiance` has refused any other
     world); black without a world."""
     if world is None:
-        node = tree.nodes.new("ShaderNodeRGB")
-        node.name = node.label = label
-        node.outputs[0].default_value = (0.0, 0.0, 0.0, 1.0)
-        return node.outputs[0]
+        black = _grey(tree, 0.0)
+        black.node.name = black.node.label = label
+        return black
     background = world_shader(world)
 
     def drive(socket, channel: int) -> None:

@@ -86,6 +86,8 @@ pub struct BakedLight {
 
 /// A bake's grids, on the volume's grid but for the multiply scattered light.
 pub struct Baked {
+    /// The classified extinction the bake read (the VDB's `density`).
+    pub extinction: Volume,
     pub ao: Volume,
     pub lights: Vec<BakedLight>,
 }
@@ -138,6 +140,13 @@ fn unit(light: &Light) -> Option<Light> {
     }
 }
 
+/// The stages [`bake`] reports progress in: the visibility, then per sun or lamp its reaching
+/// light and (with `multiple`) its multiple scattering.
+pub fn stages(lighting: &Lighting, params: &BakeParams) -> u64 {
+    let lamps = lighting.lights.iter().filter_map(unit).count() as u64;
+    1 + lamps * (1 + params.multiple as u64)
+}
+
 /// Bakes the light of `lighting` into grids of `volume` classified by `classification`, on
 /// `compute`. `progress` counts stages: the visibility, then per light its reaching light and
 /// (with `multiple`) its multiple scattering.
@@ -157,8 +166,7 @@ pub fn bake(
         .enumerate()
         .filter_map(|(i, l)| Some((i, unit(l)?)))
         .collect();
-    let per_light = 1 + params.multiple as u64;
-    let total = 1 + per_light * units.len() as u64;
+    let total = stages(lighting, params);
     let mut done = 0;
     let mut step = |progress: &dyn Progress| {
         done += 1;
@@ -209,7 +217,11 @@ pub fn bake(
             multiple,
         });
     }
-    Ok(Baked { ao, lights })
+    Ok(Baked {
+        extinction,
+        ao,
+        lights,
+    })
 }
 
 /// The irradiance of `light` (a unit light) reaching each voxel centre of `extinction`.

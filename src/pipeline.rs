@@ -410,7 +410,6 @@ pub fn write_ao(
 /// marker). Returns the paths written.
 pub fn write_bake(
     baked: &Baked,
-    density: &ExportDensity,
     volume: &Volume,
     record: &serde_json::Value,
     out_dir: &Path,
@@ -418,7 +417,9 @@ pub fn write_bake(
     vdb: &VdbOptions,
 ) -> Result<Vec<PathBuf>> {
     let named = baked.grids();
-    let mut grids = export_grids(&[], density, volume);
+    // The bake holds the dense extinction already: the density grid is it.
+    let density = VdbGrid::from_volume(EXPORT_GRIDS[0], &baked.extinction);
+    let mut grids = vec![density, VdbGrid::from_volume(EXPORT_GRIDS[1], volume)];
     grids.extend(
         named
             .iter()

@@ -10,7 +10,7 @@ use occlux::classify::{
 use occlux::export::vdb::VdbOptions;
 use occlux::gpu::Compute;
 use occlux::lights::{Light, Lighting};
-use occlux::pipeline::{write_bake, ExportDensity};
+use occlux::pipeline::write_bake;
 use occlux::progress::NoProgress;
 use occlux::volume::Volume;
 
@@ -225,11 +225,9 @@ fn the_bake_vdb_reads_back_grid_for_grid() {
     )
     .unwrap();
     let out = tempfile::tempdir().unwrap();
-    let density = ExportDensity::new(&classification, &volume).unwrap();
     let record = serde_json::json!({"test": true});
     let written = write_bake(
         &baked,
-        &density,
         &volume,
         &record,
         out.path(),

@@ -1,12 +1,12 @@
 //! The body of `occlux bake`: the baked light grids of a scene (src/bake.rs), with progress and
 //! timing, into OUT/STEM-bake.vdb and OUT/STEM-bake.json.
 
-use occlux::bake::{bake, light_grid, multiple_grids, BakeParams, AO};
+use occlux::bake::{bake, light_grid, multiple_grids, stages, BakeParams, AO};
 use occlux::error::Result;
 use occlux::export::atomic::check_writable;
 use occlux::export::vdb::VdbOptions;
 use occlux::gpu::{Compute, DeviceChoice};
-use occlux::pipeline::{stem, write_bake, ExportDensity};
+use occlux::pipeline::{stem, write_bake};
 use occlux::scene::Scene;
 use occlux_lab::term::{notice, report_written, say, Bar};
 use std::path::Path;
@@ -27,13 +27,7 @@ pub fn bake_scene(
         notice(quiet, line);
     }
     let volume = parsed.load_volume()?;
-    let bakeable = parsed
-        .lighting
-        .lights
-        .iter()
-        .filter(|l| !matches!(l, occlux::lights::Light::Ambient { .. }))
-        .count() as u64;
-    let bar = Bar::new(quiet, 1 + bakeable * (1 + params.multiple as u64), "bake");
+    let bar = Bar::new(quiet, stages(&parsed.lighting, params), "bake");
     let started = Instant::now();
     let baked = bake(
         &compute,
@@ -77,8 +71,7 @@ pub fn bake_scene(
         "device": compute.describe(),
         "bake_ms": bake_ms,
     });
-    let density = ExportDensity::new(&parsed.classification, &volume)?;
-    let written = write_bake(&baked, &density, &volume, &record, out, &stem(scene), vdb)?;
+    let written = write_bake(&baked, &volume, &record, out, &stem(scene), vdb)?;
     report_written(&written, quiet);
     Ok(())
 }

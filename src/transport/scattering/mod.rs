@@ -161,6 +161,13 @@ pub fn iterate(
     )?;
     let mut source = Source::Direct(d);
     let mut sum = Bands::zeros(cells, coefficients_for(params.g));
+    // Band 0 summed over the cells: the light a field holds, and that of the sum so far.
+    let band_0 = |bands: &Bands| -> f64 {
+        (0..cells)
+            .map(|cell| bands.mean(cell).element_sum() as f64)
+            .sum()
+    };
+    let mut found = 0.0;
     let mut bounces = 0;
     for bounce in 0..params.bounces {
         let part = Part {
@@ -171,12 +178,9 @@ pub fn iterate(
         let field = sweep(source, &part)?;
         bounces += 1;
         sum.add(&field);
-        let band_0 = |bands: &Bands| -> f64 {
-            (0..cells)
-                .map(|cell| bands.mean(cell).element_sum() as f64)
-                .sum()
-        };
-        if band_0(&field) <= CONVERGED as f64 * band_0(&sum) || bounce + 1 == params.bounces {
+        let added = band_0(&field);
+        found += added;
+        if added <= CONVERGED as f64 * found || bounce + 1 == params.bounces {
             break;
         }
         source = Source::Bands(field);
