@@ -1105,7 +1105,19 @@ fn truncated_payloads_state_expected_and_found_bytes() {
     };
     assert_mentions(
         &failure(&raw_file, &options),
-        &["file is 100 bytes", "need 135"],
+        &[
+            "file is 100 bytes, too small",
+            "a 7-byte header and",
+            "need 135",
+        ],
+    );
+
+    // A file longer than the layout is said to be too large, by how much.
+    let raw_file = dir.path().join("long.raw");
+    std::fs::write(&raw_file, vec![0u8; 135 + 9]).unwrap();
+    assert_mentions(
+        &failure(&raw_file, &options),
+        &["file is 144 bytes, too large", "need 135, 9 fewer"],
     );
 }
 

@@ -278,12 +278,21 @@ impl VdbOptions {
 
 /// Writes the grids into one file, atomically.
 pub fn write_vdb(path: &Path, grids: &[VdbGrid], options: &VdbOptions) -> Result<()> {
+    let each: Vec<(VdbGrid, VdbOptions)> = grids.iter().map(|g| (*g, *options)).collect();
+    write_vdb_each(path, &each)
+}
+
+/// Writes the grids into one file, atomically, each with its own options: OpenVDB stores the
+/// compression and the half-float flag per grid, so a grid whose values need no more than a
+/// half float's 11 significant bits (an occlusion in [0, 1]) can be stored as one beside a
+/// float32 grid.
+pub fn write_vdb_each(path: &Path, grids: &[(VdbGrid, VdbOptions)]) -> Result<()> {
     if grids.is_empty() {
         return Err(Error::param("vdb", "nothing to write: no grids"));
     }
-    for (n, grid) in grids.iter().enumerate() {
+    for (n, (grid, options)) in grids.iter().enumerate() {
         grid.validate(options)?;
-        if grids[..n].iter().any(|g| g.name == grid.name) {
+        if grids[..n].iter().any(|(g, _)| g.name == grid.name) {
             return Err(Error::param(
                 "vdb",
                 format!("two grids are named '{}'", grid.name),
@@ -291,15 +300,11 @@ pub fn write_vdb(path: &Path, grids: &[VdbGrid], options: &VdbOptions) -> Result
         }
     }
     write_atomic(path, |w| {
-        write_file(w, grids, options).map_err(|e| Error::io(path, e))
+        write_file(w, grids).map_err(|e| Error::io(path, e))
     })
 }
 
-fn write_file<W: Write + Seek>(
-    w: &mut W,
-    grids: &[VdbGrid],
-    options: &VdbOptions,
-) -> std::io::Result<()> {
+fn write_file<W: Write + Seek>(w: &mut W, grids: &[(VdbGrid, VdbOptions)]) -> std::io::Result<()> {
     w.write_all(&0x5644_4220i64.to_le_bytes())?;
     w.write_all(&FILE_VERSION.to_le_bytes())?;
     w.write_all(&LIBRARY_VERSION.0.to_le_bytes())?;
@@ -308,16 +313,16 @@ fn write_file<W: Write + Seek>(
     w.write_all(uuid(grids).as_bytes())?;
     w.write_all(&0u32.to_le_bytes())?; // no file metadata
     w.write_all(&(grids.len() as u32).to_le_bytes())?;
-    for grid in grids {
+    for (grid, options) in grids {
         write_grid(w, grid, options)?;
     }
     Ok(())
 }
 
 /// A deterministic 36-character identifier from the grids' names and sizes.
-fn uuid(grids: &[VdbGrid]) -> String {
+fn uuid(grids: &[(VdbGrid, VdbOptions)]) -> String {
     let mut h: u64 = 0xcbf2_9ce4_8422_2325;
-    for g in grids {
+    for (g, _) in grids {
         for b in g.name.bytes().chain(g.values.len().to_le_bytes()) {
             h = (h ^ b as u64).wrapping_mul(0x0100_0000_01b3);
         }

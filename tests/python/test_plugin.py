@@ -261,6 +261,23 @@ def test_write_vdb_half_rounds_to_float16(tmp_path: Path, openvdb) -> None:
     np.testing.assert_array_equal(read, expected)
 
 
+def test_write_vdb_stores_the_named_grids_as_half_floats(tmp_path: Path, openvdb) -> None:
+    """`half` as grid names: those grids float16 (rounded as numpy rounds), the others float32
+    (exact), in one file; a name that is not a grid is refused."""
+    volume = occlux.Volume(random_values((5, 4, 3)) * 1.2345)
+    path = tmp_path / "mixed.vdb"
+    occlux.write_vdb(path, {"ao": volume, "density": volume}, half=["ao"])
+    grids = {grid.name: grid for grid in openvdb.readAll(str(path))[0]}
+    assert grids["ao"].saveFloatAsHalf and not grids["density"].saveFloatAsHalf
+    for name, dtype in (("ao", np.float16), ("density", np.float32)):
+        read = np.zeros(volume.dims, np.float32)
+        grids[name].copyToArray(read)
+        expected = volume.values.astype(dtype).astype(np.float32).transpose(2, 1, 0)
+        np.testing.assert_array_equal(read, expected)
+    with pytest.raises(occlux.OccluxError, match="no grid 'sdf' to store as float16"):
+        occlux.write_vdb(tmp_path / "refused.vdb", {"ao": volume}, half=["sdf"])
+
+
 # ---- errors ----
 
 

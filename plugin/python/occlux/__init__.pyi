@@ -1,6 +1,6 @@
 """Type stubs of the ``occlux`` package (the native module ``occlux._occlux``)."""
 
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Collection, Sequence
 from os import PathLike
 from typing import Any, Literal
 
@@ -294,11 +294,13 @@ def write_vdb(
     path: _Path,
     grids: dict[str, Volume],
     compression: Literal["zip", "none"] = "zip",
-    half: bool = False,
+    half: bool | Collection[str] = False,
 ) -> None:
     """Writes ``{name: Volume}`` as float grids of one OpenVDB file, atomically: sparse (voxels
     equal to 0 are inactive) fog volumes with each volume's spacing and origin as the grid
-    transform; ``half`` stores values as float16. A grid whose voxels are all 0 is an error."""
+    transform; ``half`` stores values as float16 (11 significant bits): True for every grid, or
+    the names of the grids to store so, the others float32. A grid whose voxels are all 0, or a
+    value a half float cannot hold (|v| > 65504) in a half grid, is an error."""
 
 class ReferenceResult:
     """A Monte Carlo reference. Immutable; the arrays are read-only views of its memory."""

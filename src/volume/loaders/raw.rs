@@ -12,6 +12,31 @@ use std::fs::File;
 use std::io::BufReader;
 use std::path::Path;
 
+/// Why a file of `found` bytes is not `header_bytes` followed by `layout`'s voxels (`needed`
+/// bytes in all, None past 2^64). Neutral about where the layout came from (the CLI's flags, a
+/// scene's keys or the Blender panel's fields all share it), and it says which way the size is
+/// wrong: a longer file may hold a header, or other dims or another type.
+fn size_mismatch(found: u64, needed: Option<u64>, header_bytes: u64, layout: &Layout) -> String {
+    let header = match header_bytes {
+        0 => String::new(),
+        n => format!("a {n}-byte header and "),
+    };
+    let what = format!(
+        "{header}{} ({} bytes of voxels)",
+        layout.describe(),
+        layout.byte_len
+    );
+    match needed {
+        Some(n) if found > n => format!(
+            "file is {found} bytes, too large: {what} need {n}, {} fewer (does the file hold \
+             a header, or other dims or another type?)",
+            found - n
+        ),
+        Some(n) => format!("file is {found} bytes, too small: {what} need {n}"),
+        None => format!("file is {found} bytes, too small: {what} need more than 2^64"),
+    }
+}
+
 pub(super) fn load(path: &Path, opts: &LoadOptions) -> Result<(Volume, SourceInfo)> {
     let spec = opts.raw.as_ref().ok_or_else(|| {
         Error::format(
@@ -35,13 +60,7 @@ pub(super) fn load(path: &Path, opts: &LoadOptions) -> Result<(Volume, SourceInf
     if needed != Some(found) {
         return Err(Error::format(
             path,
-            format!(
-                "file is {found} bytes, but header_bytes {} + {} ({} bytes) need {}",
-                spec.header_bytes,
-                layout.describe(),
-                layout.byte_len,
-                needed.map_or("more than 2^64".to_string(), |n| n.to_string())
-            ),
+            size_mismatch(found, needed, spec.header_bytes, &layout),
         ));
     }
     let mut reader = BufReader::new(file);
