@@ -13,10 +13,13 @@
 //!   radiance scattered into x of light that has scattered at least once before
 //!   ([`crate::transport::scattering`], 8 bounces as the `multiple` reference), per unit
 //!   strength and colour channel (the albedo of every earlier scattering is in it), on the
-//!   solver's coarser grid.
+//!   solver's coarser grid;
+//! - `ao_multiple_r`, `_g`, `_b` (with `multiple`): the same for uniform white ambient light of
+//!   unit radiance, whose light scattered once is `ao` itself
+//!   ([`crate::transport::scattering::ambient_in_scattered`]).
 //!
-//! A renderer adds, per unit length, sigma_s(x) (world x `ao` + sum_i strength_i colour_i
-//! (`light{i}` / 4 pi + `light{i}_multiple`)) as emission, with sigma_s = albedo x sigma_t of
+//! A renderer adds, per unit length, sigma_s(x) (world x (`ao` + `ao_multiple`) + sum_i
+//! strength_i colour_i (`light{i}` / 4 pi + `light{i}_multiple`)) as emission, with sigma_s = albedo x sigma_t of
 //! the classification, and leaves the baked lights out of the volume's direct lighting.
 //! Moving a light or changing the classification needs a new bake; its strength and colour do
 //! not.
@@ -30,7 +33,7 @@ use crate::render::ipsvi::{transport_coarsen, TRANSPORT_DIRECTIONS};
 use crate::render::reference::DEFAULT_BOUNCES;
 use crate::transport::medium::Medium;
 use crate::transport::scattering::direct::{nearest, reaching, transmittance};
-use crate::transport::scattering::{in_scattered, ScatteringParams};
+use crate::transport::scattering::{ambient_in_scattered, in_scattered, ScatteringParams};
 use crate::volume::Volume;
 use glam::Vec3;
 use rayon::prelude::*;
@@ -39,6 +42,11 @@ use rayon::prelude::*;
 pub const AO: &str = crate::render::ao_shaded::AO_GRID;
 /// The colour channels' suffixes of the multiply scattered light's grids.
 pub const CHANNELS: [&str; 3] = ["r", "g", "b"];
+
+/// The grids of ambient light's multiply scattered light, red, green and blue.
+pub fn ambient_multiple_grids() -> [String; 3] {
+    CHANNELS.map(|c| format!("{AO}_multiple_{c}"))
+}
 
 /// The grid of the light reaching each point from baked light `index`.
 pub fn light_grid(index: usize) -> String {
@@ -55,7 +63,7 @@ pub fn multiple_grids(index: usize) -> [String; 3] {
 pub struct BakeParams {
     /// Directions of the ambient visibility ([`crate::transport::DEFAULT_DIRECTIONS`]).
     pub directions: u32,
-    /// Also the multiply scattered light of each sun and lamp.
+    /// Also the multiply scattered light of ambient light and of each sun and lamp.
     pub multiple: bool,
     /// Henyey-Greenstein asymmetry of the multiple scattering, in (-1, 1).
     pub g: f32,
@@ -89,14 +97,19 @@ pub struct Baked {
     /// The classified extinction the bake read (the VDB's `density`).
     pub extinction: Volume,
     pub ao: Volume,
+    /// Ambient light's multiply scattered light per unit radiance, per channel, on the
+    /// solver's grid.
+    pub ao_multiple: Option<[Volume; 3]>,
     pub lights: Vec<BakedLight>,
 }
 
 impl Baked {
-    /// Every grid by name, in order: `ao`, then per light `light{i}` and its multiple grids.
+    /// Every grid by name, in order: `ao` and its multiple grids, then per light `light{i}` and
+    /// its multiple grids.
     pub fn grids(&self) -> Vec<(String, &Volume)> {
         named(
             &self.ao,
+            self.ao_multiple.as_ref().map(|m| m.each_ref()),
             self.lights
                 .iter()
                 .map(|l| (&l.reaching, l.multiple.as_ref().map(|m| m.each_ref()))),
@@ -107,14 +120,23 @@ impl Baked {
     pub fn into_grids(self) -> Vec<(String, Volume)> {
         named(
             self.ao,
+            self.ao_multiple,
             self.lights.into_iter().map(|l| (l.reaching, l.multiple)),
         )
     }
 }
 
-/// `ao`, then per light its reaching light and its multiple grids, named.
-fn named<V>(ao: V, lights: impl Iterator<Item = (V, Option<[V; 3]>)>) -> Vec<(String, V)> {
+/// `ao` and its multiple grids, then per light its reaching light and its multiple grids,
+/// named.
+fn named<V>(
+    ao: V,
+    ao_multiple: Option<[V; 3]>,
+    lights: impl Iterator<Item = (V, Option<[V; 3]>)>,
+) -> Vec<(String, V)> {
     let mut grids = vec![(AO.to_owned(), ao)];
+    if let Some(multiple) = ao_multiple {
+        grids.extend(ambient_multiple_grids().into_iter().zip(multiple));
+    }
     for (i, (reaching, multiple)) in lights.enumerate() {
         grids.push((light_grid(i), reaching));
         if let Some(multiple) = multiple {
@@ -140,16 +162,16 @@ fn unit(light: &Light) -> Option<Light> {
     }
 }
 
-/// The stages [`bake`] reports progress in: the visibility, then per sun or lamp its reaching
-/// light and (with `multiple`) its multiple scattering.
+/// The stages [`bake`] reports progress in: the visibility and (with `multiple`) its multiple
+/// scattering, then per sun or lamp its reaching light and (with `multiple`) its multiple
+/// scattering.
 pub fn stages(lighting: &Lighting, params: &BakeParams) -> u64 {
     let lamps = lighting.lights.iter().filter_map(unit).count() as u64;
-    1 + lamps * (1 + params.multiple as u64)
+    (1 + lamps) * (1 + params.multiple as u64)
 }
 
 /// Bakes the light of `lighting` into grids of `volume` classified by `classification`, on
-/// `compute`. `progress` counts stages: the visibility, then per light its reaching light and
-/// (with `multiple`) its multiple scattering.
+/// `compute`. `progress` counts [`stages`].
 pub fn bake(
     compute: &Compute,
     volume: &Volume,
@@ -176,7 +198,7 @@ pub fn bake(
     let ao =
         crate::transport::visibility(compute, &extinction, params.directions, &Cancel(progress))?;
     step(progress);
-    let medium = if params.multiple && !units.is_empty() {
+    let medium = if params.multiple {
         let lut = classification.bake(volume);
         Some(Medium::classify(
             volume,
@@ -190,6 +212,19 @@ pub fn bake(
         Compute::Gpu(ctx) => Some(&**ctx),
         Compute::Cpu => None,
     };
+    let scattering = ScatteringParams {
+        directions: TRANSPORT_DIRECTIONS,
+        bounces: DEFAULT_BOUNCES,
+        g: params.g,
+    };
+    let ao_multiple = match &medium {
+        Some(medium) => {
+            let field = ambient_in_scattered(gpu, medium, &ao, &scattering, &Cancel(progress))?;
+            step(progress);
+            Some(per_channel_means(&field.grid, &field.bands)?)
+        }
+        None => None,
+    };
     let mut lights = Vec::with_capacity(units.len());
     for (scene_index, unit_light) in units {
         if progress.cancelled() {
@@ -199,11 +234,6 @@ pub fn bake(
         step(progress);
         let multiple = match &medium {
             Some(medium) => {
-                let scattering = ScatteringParams {
-                    directions: TRANSPORT_DIRECTIONS,
-                    bounces: DEFAULT_BOUNCES,
-                    g: params.g,
-                };
                 let field = in_scattered(gpu, medium, &unit_light, &scattering, &Cancel(progress))?;
                 step(progress);
                 Some(per_channel_means(&field.grid, &field.bands)?)
@@ -220,6 +250,7 @@ pub fn bake(
     Ok(Baked {
         extinction,
         ao,
+        ao_multiple,
         lights,
     })
 }

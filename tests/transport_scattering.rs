@@ -5,7 +5,7 @@ use glam::Vec3;
 use occlux::lights::Light;
 use occlux::progress::NoProgress;
 use occlux::transport::medium::Medium;
-use occlux::transport::scattering::{in_scattered, ScatteringParams};
+use occlux::transport::scattering::{ambient_in_scattered, in_scattered, ScatteringParams};
 use occlux::volume::Volume;
 
 /// A slab of `n` x `n` cells across and `depth` cells deep, of extinction `sigma` per world
@@ -182,4 +182,43 @@ fn the_solver_grid_keeps_enough_cells_along_the_longest_axis() {
     assert_eq!(transport_coarsen([256, 256, 128]), 2);
     assert_eq!(transport_coarsen([41, 512, 512]), 4);
     assert_eq!(transport_coarsen([1024, 1024, 1024]), 8);
+}
+
+/// Ambient light whose light scattered once is J_1 = 1 everywhere (a visibility of ones) in a
+/// homogeneous cube: the light scattered into its centre once more is
+/// J_2 = albedo E_w[1 - e^(-sigma d(w))], d(w) = h / max_i |w_i| the distance to the cube's
+/// surface along w (h its half side), the mean taken over many Fibonacci directions here and
+/// over the solver's ordinates there (the difference is its angular and spatial error).
+#[test]
+fn ambient_light_scattered_again_at_a_cubes_centre_meets_its_closed_form() {
+    let (n, h, sigma, albedo) = (25, 0.1f32, 0.8f32, 0.9f32);
+    let medium = slab(n, n, h, sigma, albedo);
+    let ones = Volume::new([n; 3], Vec3::splat(h), Vec3::ZERO, vec![1.0; n * n * n]).unwrap();
+    let params = ScatteringParams {
+        directions: 128,
+        bounces: 1,
+        g: 0.0,
+    };
+    let j = ambient_in_scattered(None, &medium, &ones, &params, &NoProgress).unwrap();
+    assert_eq!(j.bounces, 1);
+    let half = 0.5 * n as f64 * h as f64; // the medium ends at the box's faces
+    let directions = occlux::transport::directions::fibonacci(200_000);
+    let expected = albedo as f64
+        * directions
+            .iter()
+            .map(|w| {
+                let d = half / w.abs().max_element();
+                1.0 - (-(sigma as f64) * d).exp()
+            })
+            .sum::<f64>()
+        / directions.len() as f64;
+    let centre = (n / 2) * (n * n + n + 1);
+    let got = j.bands.mean(centre);
+    assert!((got.x - got.z).abs() < 1e-6, "a white medium: {got}");
+    let error = (got.x as f64 / expected - 1.0).abs();
+    println!(
+        "J_2 at the centre {} against {expected:.5}: {error:.2e}",
+        got.x
+    );
+    assert!(error < 0.02, "J_2 {} against {expected}", got.x);
 }

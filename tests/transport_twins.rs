@@ -21,10 +21,13 @@ use common::twins::ctx;
 use glam::Vec3;
 use occlux::classify::presets;
 use occlux::gpu::Compute;
+use occlux::gpu::GpuContext;
 use occlux::lights::Light;
 use occlux::progress::NoProgress;
 use occlux::transport::medium::Medium;
-use occlux::transport::scattering::{in_scattered, ScatteringParams};
+use occlux::transport::scattering::{
+    ambient_in_scattered, in_scattered, InScattered, ScatteringParams,
+};
 use occlux::transport::{self, DEFAULT_DIRECTIONS};
 use occlux::volume::{phantom, Volume};
 use rand::{Rng, SeedableRng};
@@ -109,13 +112,25 @@ fn classified_ct_phantom_agrees() {
 const SCATTERING_TOLERANCE: f32 = 1e-3;
 
 fn compare_scattering(label: &str, medium: &Medium, light: &Light, g: f32) {
+    compare_solves(label, medium, g, |gpu, params| {
+        in_scattered(gpu, medium, light, params, &NoProgress).unwrap()
+    });
+}
+
+/// The twins of `solve` (on the CPU: None; on the GPU) agree on `medium`.
+fn compare_solves(
+    label: &str,
+    medium: &Medium,
+    g: f32,
+    solve: impl Fn(Option<&GpuContext>, &ScatteringParams) -> InScattered,
+) {
     let params = ScatteringParams {
         directions: 16,
         bounces: 8,
         g,
     };
-    let on_cpu = in_scattered(None, medium, light, &params, &NoProgress).unwrap();
-    let on_gpu = in_scattered(Some(&ctx()), medium, light, &params, &NoProgress).unwrap();
+    let on_cpu = solve(None, &params);
+    let on_gpu = solve(Some(&ctx()), &params);
     assert_eq!(on_cpu.bounces, on_gpu.bounces, "{label}: bounces");
     let (a, b) = (on_cpu.bands.values(), on_gpu.bands.values());
     assert_eq!(a.len(), b.len(), "{label}: layout");
@@ -171,6 +186,20 @@ fn scattering_twins_agree_under_a_sun_and_a_lamp() {
     for g in [0.0, 0.6] {
         compare_scattering(&format!("sun, g = {g}"), &medium, &sun, g);
         compare_scattering(&format!("lamp, g = {g}"), &medium, &lamp, g);
+    }
+}
+
+/// Ambient light starts from its visibility (uploaded as the first field on the GPU) rather
+/// than from a light's first scattering.
+#[test]
+fn scattering_twins_agree_under_ambient_light() {
+    let medium = random_medium([11, 8, 14], Vec3::new(1.0, 0.5, 0.8), 9);
+    let visibility =
+        transport::visibility(&Compute::Cpu, &medium.extinction, 16, &NoProgress).unwrap();
+    for g in [0.0, 0.6] {
+        compare_solves(&format!("ambient, g = {g}"), &medium, g, |gpu, params| {
+            ambient_in_scattered(gpu, &medium, &visibility, params, &NoProgress).unwrap()
+        });
     }
 }
 

@@ -1,7 +1,9 @@
 //! The body of `occlux bake`: the baked light grids of a scene (src/bake.rs), with progress and
 //! timing, into OUT/STEM-bake.vdb and OUT/STEM-bake.json.
 
-use occlux::bake::{bake, light_grid, multiple_grids, stages, BakeParams, AO};
+use occlux::bake::{
+    ambient_multiple_grids, bake, light_grid, multiple_grids, stages, BakeParams, AO,
+};
 use occlux::error::Result;
 use occlux::export::atomic::check_writable;
 use occlux::export::vdb::VdbOptions;
@@ -64,6 +66,7 @@ pub fn bake_scene(
         "scene": scene.display().to_string(),
         "dims": volume.dims(),
         "ao": AO,
+        "ao_multiple": baked.ao_multiple.as_ref().map(|_| ambient_multiple_grids()),
         "directions": params.directions,
         "g": params.g,
         "lights": lights,

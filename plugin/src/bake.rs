@@ -10,12 +10,14 @@ use pyo3::types::PyDict;
 
 /// Bakes the light of `scene` (its own volume, or `volume`) into grids any renderer can shade
 /// with, without tracing shadows, each per unit strength of its light: {"ao": the ambient
-/// visibility (`directions` discrete ordinates), then per sun or lamp i of the scene's lights
+/// visibility (`directions` discrete ordinates), with `multiple` "ao_multiple_r", "_g", "_b"
+/// (uniform white ambient light's multiply scattered light per unit radiance), then per sun or
+/// lamp i of the scene's lights
 /// (in their order, ambient lights skipped) "light{i}": the irradiance reaching each voxel per
 /// unit strength, and with `multiple` "light{i}_multiple_r", "_g", "_b": its multiply
 /// scattered light per unit strength (Henyey-Greenstein `g`), on the solver's coarser grid}.
-/// `device` and `progress` as for `render` (stages: the visibility, then per light its light
-/// and its multiple scattering). The GIL is released while it computes.
+/// `device` and `progress` as for `render` (stages: the visibility and its multiple
+/// scattering, then per light its light and its multiple scattering). The GIL is released while it computes.
 #[pyfunction]
 #[pyo3(signature = (
     scene, directions = occlux::transport::DEFAULT_DIRECTIONS, multiple = true, g = 0.0,

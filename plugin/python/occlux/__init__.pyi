@@ -403,13 +403,15 @@ def bake(
 ) -> dict[str, Volume]:
     """What ``occlux bake`` computes: the light of ``scene`` baked into grids a renderer shades
     with, without tracing shadows, each per unit strength of its light: ``"ao"`` (the ambient
-    visibility by ``directions`` discrete ordinates), then per sun or lamp ``i`` of the scene's
-    lights (in order, ambient lights skipped) ``"light{i}"`` (the irradiance reaching each voxel
+    visibility by ``directions`` discrete ordinates; with ``multiple`` also ``"ao_multiple_r"``,
+    ``"_g"``, ``"_b"``, uniform white ambient light's multiply scattered light per unit
+    radiance), then per sun or lamp ``i`` of the scene's lights (in order, ambient lights
+    skipped) ``"light{i}"`` (the irradiance reaching each voxel
     per unit strength: the transmittance for a sun, transmittance / r^2 for a lamp) and, with
     ``multiple``, ``"light{i}_multiple_r"``, ``"_g"``, ``"_b"`` (its multiply scattered light
     per unit strength, Henyey-Greenstein ``g``, on the solver's coarser grid), ready for
-    :func:`write_vdb`. Emission per unit length sigma_s (world x ao + sum_i strength_i
-    colour_i (light{i} / 4 pi + light{i}_multiple)) renders the baked light."""
+    :func:`write_vdb`. Emission per unit length sigma_s (world x (ao + ao_multiple) + sum_i
+    strength_i colour_i (light{i} / 4 pi + light{i}_multiple)) renders the baked light."""
 
 def methods() -> list[dict[str, Any]]:
     """The rendering methods a scene's ``render.method`` can name (the core's registry): each

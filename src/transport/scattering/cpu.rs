@@ -3,9 +3,8 @@
 //! contiguous padded buffers once per sweep order and plane, as the visibility sweep does.
 
 use super::bands::{basis, coefficients_for, gathering, Bands, THROUGH_BAND_2};
-use super::{iterate, InScattered, ScatteringParams, Source};
+use super::{iterate, InScattered, Lit, ScatteringParams, Source};
 use crate::error::{Error, Result};
-use crate::lights::Light;
 use crate::optics::phase::henyey_greenstein;
 use crate::progress::Progress;
 use crate::transport::directions::{Ordinate, Ordinates};
@@ -38,7 +37,7 @@ impl Reading<'_> {
 
 pub fn solve(
     medium: &Medium,
-    light: &Light,
+    lit: &Lit,
     ordinates: &Ordinates,
     params: &ScatteringParams,
     progress: &dyn Progress,
@@ -46,21 +45,14 @@ pub fn solve(
     let g = params.g;
     let per_channel = coefficients_for(g);
     let gather = gathering(ordinates, g);
-    iterate(
-        medium,
-        light,
-        ordinates,
-        params,
-        progress,
-        |source, part| {
-            let reading = Reading {
-                source: &source,
-                g,
-                scattering: &medium.scattering,
-            };
-            sweep(medium, ordinates, &gather, per_channel, &reading, part)
-        },
-    )
+    iterate(medium, lit, ordinates, params, progress, |source, part| {
+        let reading = Reading {
+            source: &source,
+            g,
+            scattering: &medium.scattering,
+        };
+        sweep(medium, ordinates, &gather, per_channel, &reading, part)
+    })
 }
 
 /// One bounce: every ordinate swept with `source`; the bands of the J its radiance scatters

@@ -10,14 +10,13 @@
 //! planes of radiance and source (16 f32 per padded cell).
 
 use super::bands::{coefficients_for, gathering, Bands, THROUGH_BAND_2};
-use super::{iterate, InScattered, ScatteringParams, Source};
+use super::{iterate, InScattered, Lit, ScatteringParams, Source};
 use crate::error::Result;
 use crate::gpu::{
     buffer,
     shader::{self, Wgsl},
     GpuContext,
 };
-use crate::lights::Light;
 use crate::progress::Progress;
 use crate::transport::directions::{Ordinate, Ordinates};
 use crate::transport::gpu::{sweep_orders, OrdinatesPlane};
@@ -71,7 +70,7 @@ impl GpuOrdinate {
 pub fn solve(
     ctx: &GpuContext,
     medium: &Medium,
-    light: &Light,
+    lit: &Lit,
     ordinates: &Ordinates,
     params: &ScatteringParams,
     progress: &dyn Progress,
@@ -111,56 +110,59 @@ pub fn solve(
         buffers.bind(ctx, &pipeline, 1)?,
     ];
     let mut bounce = 0usize;
-    iterate(
-        medium,
-        light,
-        ordinates,
-        params,
-        progress,
-        |source, part| {
-            let now = bounce % 2;
-            let first_bounce = match source {
-                Source::Direct(d) => {
-                    let packed: Vec<Vec4> = d
-                        .towards
-                        .iter()
-                        .zip(&d.irradiance)
-                        .flat_map(|(t, e)| [t.extend(0.0), e.extend(0.0)])
-                        .collect();
-                    ctx.queue
-                        .write_buffer(&buffers.direct, 0, bytemuck::cast_slice(&packed));
-                    true
-                }
-                Source::Bands(_) => false,
-            };
-            clear(ctx, &buffers.fields[now]);
-            let mut uniform = Params {
-                per_channel: per_channel as u32,
-                first_bounce: first_bounce as u32,
-                g: params.g,
-                ..Params::zeroed()
-            };
-            sweep_orders(
-                ctx,
-                dims,
-                ordinates,
-                part,
-                // Each order starts with no light upwind and padding that holds none.
-                |_, _| clear(ctx, &buffers.planes),
-                |sweep, workgroups| {
-                    // Written before each dispatch: the write lands at the start of the next
-                    // submission, so each dispatch (submitted on its own) sees its own values.
-                    uniform.sweep = *sweep;
-                    ctx.queue
-                        .write_buffer(&buffers.uniform, 0, bytemuck::bytes_of(&uniform));
-                    shader::dispatch(ctx, &pipeline, &binds[now], workgroups)
-                },
-            )?;
-            bounce += 1;
-            let values = buffer::read_buffer::<f32>(ctx, &buffers.fields[now])?;
-            Ok(Bands::from_values(per_channel, values))
-        },
-    )
+    iterate(medium, lit, ordinates, params, progress, |source, part| {
+        let now = bounce % 2;
+        let first_bounce = match source {
+            Source::Direct(d) => {
+                let packed: Vec<Vec4> = d
+                    .towards
+                    .iter()
+                    .zip(&d.irradiance)
+                    .flat_map(|(t, e)| [t.extend(0.0), e.extend(0.0)])
+                    .collect();
+                ctx.queue
+                    .write_buffer(&buffers.direct, 0, bytemuck::cast_slice(&packed));
+                true
+            }
+            Source::Bands(ref start) if bounce == 0 => {
+                // Ambient light's first field (its visibility), read as a previous
+                // bounce's; later bounces read the field the last one left on the GPU.
+                ctx.queue.write_buffer(
+                    &buffers.fields[1 - now],
+                    0,
+                    bytemuck::cast_slice(start.values()),
+                );
+                false
+            }
+            Source::Bands(_) => false,
+        };
+        clear(ctx, &buffers.fields[now]);
+        let mut uniform = Params {
+            per_channel: per_channel as u32,
+            first_bounce: first_bounce as u32,
+            g: params.g,
+            ..Params::zeroed()
+        };
+        sweep_orders(
+            ctx,
+            dims,
+            ordinates,
+            part,
+            // Each order starts with no light upwind and padding that holds none.
+            |_, _| clear(ctx, &buffers.planes),
+            |sweep, workgroups| {
+                // Written before each dispatch: the write lands at the start of the next
+                // submission, so each dispatch (submitted on its own) sees its own values.
+                uniform.sweep = *sweep;
+                ctx.queue
+                    .write_buffer(&buffers.uniform, 0, bytemuck::bytes_of(&uniform));
+                shader::dispatch(ctx, &pipeline, &binds[now], workgroups)
+            },
+        )?;
+        bounce += 1;
+        let values = buffer::read_buffer::<f32>(ctx, &buffers.fields[now])?;
+        Ok(Bands::from_values(per_channel, values))
+    })
 }
 
 /// The solve's buffers on the GPU.

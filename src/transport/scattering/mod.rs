@@ -51,6 +51,7 @@ use crate::gpu::GpuContext;
 use crate::lights::Light;
 use crate::optics::phase::henyey_greenstein;
 use crate::progress::{Part, Progress};
+use crate::volume::Volume;
 use bands::{basis, coefficients_for, Bands};
 use direct::{direct, Direct};
 use glam::Vec3;
@@ -100,8 +101,8 @@ impl InScattered {
 }
 
 /// The in-scattered radiance of light from `light` that has scattered at least once, in
-/// `medium`, on the GPU of `gpu` or, without one, on the CPU. Ambient light is refused (its
-/// first scattering is the ambient visibility's).
+/// `medium`, on the GPU of `gpu` or, without one, on the CPU. Ambient light is refused here:
+/// [`ambient_in_scattered`] takes it, with its visibility.
 pub fn in_scattered(
     gpu: Option<&GpuContext>,
     medium: &Medium,
@@ -109,24 +110,68 @@ pub fn in_scattered(
     params: &ScatteringParams,
     progress: &dyn Progress,
 ) -> Result<InScattered> {
-    crate::optics::phase::G.check(params.g as f64)?;
     if matches!(light, Light::Ambient { .. }) {
         return Err(Error::param(
             "lights",
-            "multiple scattering on the grid takes suns and lamps; ambient light's first \
-             scattering is the ambient visibility (ao)",
+            "multiple scattering of ambient light starts from its visibility (ao): the bake \
+             solves it from its `ao` grid",
         ));
     }
+    solve(gpu, medium, &Lit::Light(light), params, progress)
+}
+
+/// The in-scattered radiance of uniform white ambient light of unit radiance that has
+/// scattered at least once, in `medium`, given its `visibility` V (the mean transmittance over
+/// all directions, on any grid over the same box: read trilinearly at the medium's cells).
+/// Its light scattered once is V itself for an isotropic phase, J_1(x) = V(x), which the first
+/// bounce sweeps as it sweeps any earlier bounce's field; for g != 0 that first field's
+/// anisotropy (g times V's first angular moment) is left out: at most g times its band 1, and
+/// only in the first of the bounces.
+pub fn ambient_in_scattered(
+    gpu: Option<&GpuContext>,
+    medium: &Medium,
+    visibility: &Volume,
+    params: &ScatteringParams,
+    progress: &dyn Progress,
+) -> Result<InScattered> {
+    let visible: Vec<f32> = (0..medium.scattering.len())
+        .into_par_iter()
+        .map(|cell| {
+            trilinear(visibility, medium.centre(cell))
+                .iter()
+                .map(|&(i, w)| w * visibility.values()[i])
+                .sum()
+        })
+        .collect();
+    solve(gpu, medium, &Lit::Ambient(&visible), params, progress)
+}
+
+fn solve(
+    gpu: Option<&GpuContext>,
+    medium: &Medium,
+    lit: &Lit,
+    params: &ScatteringParams,
+    progress: &dyn Progress,
+) -> Result<InScattered> {
+    crate::optics::phase::G.check(params.g as f64)?;
     let ordinates = super::prepare(&medium.extinction, params.directions)?;
     match gpu {
-        Some(ctx) => gpu::solve(ctx, medium, light, &ordinates, params, progress),
-        None => cpu::solve(medium, light, &ordinates, params, progress),
+        Some(ctx) => gpu::solve(ctx, medium, lit, &ordinates, params, progress),
+        None => cpu::solve(medium, lit, &ordinates, params, progress),
     }
+}
+
+/// What lights the medium: a sun or a lamp, or unit ambient light with its visibility on the
+/// medium's cells.
+pub enum Lit<'a> {
+    Light(&'a Light),
+    Ambient(&'a [f32]),
 }
 
 /// What a bounce sweeps: the light scattered for the first time (per cell the direction
 /// towards the light and sigma_s E T over the ordinates' sum of the phase, which the exact
-/// phase then multiplies), or the previous bounce's field J, which sigma_s multiplies.
+/// phase then multiplies), or the previous bounce's field J, which sigma_s multiplies (for
+/// ambient light the first bounce's too: its J_1 is the visibility).
 pub enum Source {
     Direct(Direct),
     Bands(Bands),
@@ -137,7 +182,7 @@ pub enum Source {
 /// same order whichever twin swept them.
 pub fn iterate(
     medium: &Medium,
-    light: &Light,
+    lit: &Lit,
     ordinates: &Ordinates,
     params: &ScatteringParams,
     progress: &dyn Progress,
@@ -145,22 +190,28 @@ pub fn iterate(
 ) -> Result<InScattered> {
     let dims = medium.dims();
     let cells = medium.scattering.len();
+    let per_channel = coefficients_for(params.g);
     let per_bounce = total_planes(dims, ordinates);
-    let first = dims[ordinates_axis_of(light, medium)] as u64;
+    let first = match lit {
+        Lit::Light(light) => dims[ordinates_axis_of(light, medium)] as u64,
+        Lit::Ambient(_) => 0,
+    };
     let total = first + per_bounce * params.bounces as u64;
-    let d = first_source(
-        medium,
-        light,
-        ordinates,
-        params.g,
-        &Part {
-            whole: progress,
-            offset: 0,
-            total,
-        },
-    )?;
-    let mut source = Source::Direct(d);
-    let mut sum = Bands::zeros(cells, coefficients_for(params.g));
+    let mut source = match lit {
+        Lit::Light(light) => Source::Direct(first_source(
+            medium,
+            light,
+            ordinates,
+            params.g,
+            &Part {
+                whole: progress,
+                offset: 0,
+                total,
+            },
+        )?),
+        Lit::Ambient(visible) => Source::Bands(isotropic(visible, per_channel)),
+    };
+    let mut sum = Bands::zeros(cells, per_channel);
     // Band 0 summed over the cells: the light a field holds, and that of the sum so far.
     let band_0 = |bands: &Bands| -> f64 {
         (0..cells)
@@ -190,6 +241,19 @@ pub fn iterate(
         bands: sum,
         bounces,
     })
+}
+
+/// A white field of the same J towards every direction: `values` per cell in each channel's
+/// band 0.
+fn isotropic(values: &[f32], per_channel: usize) -> Bands {
+    let mut bands = Bands::zeros(values.len(), per_channel);
+    let stride = 3 * per_channel;
+    for (cell, v) in bands.values_mut().chunks_exact_mut(stride).zip(values) {
+        for channel in 0..3 {
+            cell[channel * per_channel] = *v;
+        }
+    }
+    bands
 }
 
 /// The light that reaches each cell, with its irradiance times sigma_s over the ordinates'
