@@ -29,6 +29,7 @@ SOURCES = (
     "nodes.py",
     "panel.py",
     "scenes.py",
+    "eevee.py",
     "operators/__init__.py",
     "operators/jobs.py",
     "operators/volume.py",

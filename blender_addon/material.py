@@ -25,6 +25,10 @@ import bpy
 from occlux.blender.material import box_mask, color_ramp
 
 AO_SHADINGS = ("AMBIENT", "ALBEDO")
+# The panel's AO shading that turns the `ao` grid off: the plain material, the world lighting
+# every ray (AO strength 0 under AMBIENT is not that: the material still emits the world's
+# light, unoccluded, while the world lights camera rays only).
+AO_OFF = "OFF"
 AO_FACTOR = "Occlux AO factor"
 AMBIENT = "Occlux ambient light"
 # The baked material's colour nodes of the world's light and of each baked lamp's, driven by
@@ -148,6 +152,11 @@ def volume_material(
     else:
         tree.links.new(emitted, shader.inputs["Emission Color"])
     return material
+
+
+def ao_shading(choice: str) -> str | None:
+    """The material's AO shading for the panel's choice: one of AO_SHADINGS, None for AO_OFF."""
+    return None if choice == AO_OFF else choice
 
 
 @dataclass(frozen=True)

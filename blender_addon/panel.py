@@ -4,8 +4,10 @@ from __future__ import annotations
 
 import bpy
 
-from . import scenes
-from .operators.bake import EEVEE_BEFORE, outdated
+from . import material, scenes
+from .eevee import EEVEE_BEFORE
+from .operators.bake import outdated
+from .operators.jobs import unsaved_output
 
 
 class VIEW3D_PT_occlux(bpy.types.Panel):
@@ -27,6 +29,9 @@ class VIEW3D_PT_occlux(bpy.types.Panel):
         column.prop(settings, "density_scale")
         column.prop(settings, "fit")
         column.prop(settings, "output_dir")
+        elsewhere = unsaved_output(settings)
+        if elsewhere:
+            column.label(text=elsewhere[0].upper() + elsewhere[1:], icon="INFO")
         column.prop(settings, "memory_budget_mb")
         column.prop(settings, "device")
         layout.operator("occlux.import_volume", icon="VOLUME_DATA")
@@ -45,7 +50,9 @@ class VIEW3D_PT_occlux(bpy.types.Panel):
             column.prop(settings, "ao_radius")
         column.prop(settings, "ao_shading")
         column.prop(settings, "ao_factor")
-        layout.operator("occlux.compute_ao", icon="SHADING_RENDERED")
+        off = settings.ao_shading == material.AO_OFF
+        label = "Turn AO Off" if off else "Compute AO"
+        layout.operator("occlux.compute_ao", text=label, icon="SHADING_RENDERED")
         layout.separator()
         layout.prop(settings, "bake_multiple")
         layout.operator("occlux.bake_light", icon="LIGHT_SUN")

@@ -194,12 +194,20 @@ class OccluxSettings(bpy.types.PropertyGroup):
                 "Multiply the albedo by mix(1, ao, strength); the world lights the volume as "
                 "well (a stylised look: crevices occluded twice)",
             ),
+            (
+                material.AO_OFF,
+                "Off",
+                "No AO: Compute AO gives the volume Load Volume's plain material, and the world "
+                "lights every ray again (AO strength 0 under Ambient light still emits the "
+                "unoccluded world's light, the world lighting camera rays only)",
+            ),
         ],
         default="AMBIENT",
     )
     ao_factor: FloatProperty(
         name="AO strength",
-        description="How much the `ao` grid shades (0: not at all, 1: fully)",
+        description="How much the `ao` grid shades (0: not at all, 1: fully; 0 is not AO off "
+        "under Ambient light: choose AO shading Off)",
         min=0.0,
         soft_max=1.0,
         default=1.0,

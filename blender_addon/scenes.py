@@ -116,14 +116,30 @@ def selected_source(context: bpy.types.Context) -> VolumeInput:
 def dataset_object(context: bpy.types.Context, source: VolumeInput) -> bpy.types.Object | None:
     """The Volume object that shows `source` in the scene: the active Occlux volume, else the
     first of the scene's Occlux volumes loaded from the same file; None if none does."""
-    active = volume_object(context)
-    if active is not None:
-        return active
-    for obj in context.scene.objects:
-        if obj.type == "VOLUME" and "occlux_source" in obj:
+    return volume_object(context) or file_object(context, source)
+
+
+def file_object(context: bpy.types.Context, source: VolumeInput) -> bpy.types.Object | None:
+    """The scene's Occlux volume loaded from `source`'s file (the active object first); None if
+    none is."""
+    for obj in (context.view_layer.objects.active, *context.scene.objects):
+        if obj is not None and obj.type == "VOLUME" and "occlux_source" in obj:
             if Path(bpy.path.abspath(str(obj["occlux_source"]))).resolve() == source.path:
                 return obj
     return None
+
+
+def panel_dataset(context: bpy.types.Context) -> tuple[VolumeInput, bpy.types.Object | None]:
+    """The volume Compute AO acts on, and the object showing it (None: none yet): the panel's
+    Volume when it is set, on its own object (the active Occlux volume only if that shows the
+    same file), so that a file typed into the panel is the one whose AO is computed, and the
+    active object of another file is left alone; with the Volume field empty, the active
+    Occlux volume and its file."""
+    active = volume_object(context)
+    if active is not None and not context.scene.occlux.volume_path:
+        return selected_source(context), active
+    source = VolumeInput.from_settings(context.scene.occlux)
+    return source, file_object(context, source)
 
 
 def classification_section(settings) -> dict[str, Any]:

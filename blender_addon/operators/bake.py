@@ -10,11 +10,10 @@ and the world lights only camera rays (it stays the background), as the ambient-
 material does. What a new bake needs (a lamp moved, added or removed, the classification
 changed) is detected by `outdated` and shown in the panel; strengths and colours are read by
 the material's drivers and need none. The EEVEE settings a bake needs are set by `eevee_for`
-and restored by Restore EEVEE Settings."""
+and restored by Restore EEVEE Settings (`eevee.restore`)."""
 
 from __future__ import annotations
 
-import hashlib
 import json
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -24,14 +23,12 @@ import bpy
 import occlux
 from mathutils import Vector
 
-from .. import material, scenes
-from .jobs import JobProgress, OccluxJob, output_dir
-from .volume import Loaded, dataset_shown, show, write_grids
+from .. import eevee, material, scenes
+from .jobs import JobProgress, OccluxJob
+from .volume import PLAIN, Loaded, dataset_shown, named_vdb, show, write_grids
 
 # The object's custom property holding what its bake saw (`fingerprint`).
 BAKED = "occlux_bake"
-# The scene's custom property holding the EEVEE settings before Bake Light changed them.
-EEVEE_BEFORE = "occlux_eevee_before"
 # The lamp types a bake holds (`scenes.lamp` maps them).
 BAKED_TYPES = {"SUN": scenes.SUN, "POINT": scenes.POINT}
 
@@ -132,10 +129,11 @@ class OCCLUX_OT_bake_light(OccluxJob, bpy.types.Operator):
         tree["lights"] = [lamp_section(target, lamp) for lamp in lamps]
         scene = scenes.build(tree)
         seen = fingerprint(context, lamps)
-        # Named by what it holds, so a .blend baked with other settings keeps its own file.
-        digest = hashlib.sha256(json.dumps(seen, sort_keys=True).encode()).hexdigest()[:12]
-        vdb = output_dir(settings) / f"{source.stem}-bake-{digest}.vdb"
         device, g, multiple = settings.device, settings.ipsvi_g, settings.bake_multiple
+        # Named by what it holds, so a .blend baked with other settings keeps its own file.
+        vdb = named_vdb(
+            settings, source, "bake", {"lamps": seen["lamps"], "g": g, "multiple": multiple}
+        )
 
         def work(progress: JobProgress) -> Baked:
             volume = scenes.load_volume(scene, source)
@@ -161,7 +159,7 @@ class OCCLUX_OT_bake_light(OccluxJob, bpy.types.Operator):
     def finish(self, context: bpy.types.Context, result: Baked) -> str:
         scene = context.scene
         loaded = result.loaded
-        grids = ("density", "value", "ao")
+        grids = (*PLAIN, "ao")
         for lamp in result.lamps:
             grids += (lamp.grid,) + (lamp.multiple or ())
         shown = dataset_shown(loaded, grids)
@@ -180,7 +178,7 @@ class OCCLUX_OT_bake_light(OccluxJob, bpy.types.Operator):
             # emission along each ray with little noise, where Cycles' unbiased (null
             # scattering) sampling would need many samples.
             scene.cycles.volume_biased = True
-            changed.append("Cycles: volume_biased False -> True")
+            changed.append("Cycles volume_biased False -> True")
         told = f"; set {', '.join(changed)}" if changed else ""
         return (
             f"baked the world and {len(result.lamps)} lamp(s) into '{obj.name}' "
@@ -209,7 +207,8 @@ def exclude_from(lamp: bpy.types.Object, obj: bpy.types.Object) -> None:
 # froxels blur it (on the 64 x 48 phantom of tests/python/test_addon_bake.py 2-pixel froxels
 # and 128 slices measured 0.12 under a sun and 0.16 under the world, 1 pixel and 256 slices
 # 0.062 and 0.076); no volumetric shadows (the bake holds them); the range fitted to the
-# object (`eevee_for`).
+# object (`eevee_for`); and the indirect light in volumes unclamped (`eevee.UNCLAMPED`), as
+# Load Volume sets it, for the volumes the bake leaves plain.
 EEVEE_SLICES = 256
 EEVEE_FROXELS = 1 << 25
 EEVEE_TILES = ("1", "2", "4", "8", "16")
@@ -227,13 +226,13 @@ def froxel_tile(width: int, height: int) -> str:
 def eevee_for(scene: bpy.types.Scene, obj: bpy.types.Object) -> list[str]:
     """Sets EEVEE's volume settings for a baked `obj` seen by the scene's camera; remembers the
     user's (once, until restored) and returns what changed."""
-    eevee = scene.eevee
     percent = scene.render.resolution_percentage / 100.0
     size = (round(scene.render.resolution_x * percent), round(scene.render.resolution_y * percent))
     wanted = {
         "volumetric_tile_size": froxel_tile(*size),
         "volumetric_samples": EEVEE_SLICES,
         "use_volumetric_shadows": False,
+        **eevee.UNCLAMPED,
     }
     if scene.camera is not None:
         eye = scene.camera.matrix_world.translation
@@ -242,32 +241,20 @@ def eevee_for(scene: bpy.types.Scene, obj: bpy.types.Object) -> list[str]:
         wanted["use_volume_custom_range"] = True
         wanted["volumetric_start"] = max(0.9 * min(distances), 1e-3)
         wanted["volumetric_end"] = 1.1 * max(distances)
-    before = {key: getattr(eevee, key) for key in wanted}
-    if EEVEE_BEFORE not in scene:
-        scene[EEVEE_BEFORE] = json.dumps(before)
-    changed = []
-    for key, value in wanted.items():
-        if before[key] != value:
-            setattr(eevee, key, value)
-            changed.append(f"{key} {before[key]} -> {getattr(eevee, key)}")
-    return changed
+    return eevee.change(scene, wanted)
 
 
 class OCCLUX_OT_restore_eevee(bpy.types.Operator):
-    """Restore the EEVEE volume settings Bake Light changed"""
+    """Restore the EEVEE settings Load Volume and Bake Light changed"""
 
     bl_idname = "occlux.restore_eevee"
     bl_label = "Restore EEVEE Settings"
     bl_options = {"REGISTER", "UNDO"}
 
     def execute(self, context: bpy.types.Context) -> set[str]:
-        scene = context.scene
-        if EEVEE_BEFORE not in scene:
-            self.report({"INFO"}, "Bake Light changed no EEVEE setting")
+        if not eevee.restore(context.scene):
+            self.report({"INFO"}, "Occlux changed no EEVEE setting")
             return {"CANCELLED"}
-        for key, value in json.loads(scene[EEVEE_BEFORE]).items():
-            setattr(scene.eevee, key, value)
-        del scene[EEVEE_BEFORE]
         self.report({"INFO"}, "restored the EEVEE settings")
         return {"FINISHED"}
 

@@ -25,12 +25,21 @@ from bpy.props import IntProperty
 
 
 def output_dir(settings) -> Path:
-    """The output folder: `//` is the .blend file's folder (a temporary folder for an unsaved
-    file)."""
+    """The output folder: `//` is the .blend file's folder, for an unsaved file the temporary
+    folder (so the default `//occlux/` is TMP/occlux/: `unsaved_output`)."""
     raw = settings.output_dir or "//occlux/"
     if raw.startswith("//") and not bpy.data.filepath:
-        return Path(tempfile.gettempdir()) / "occlux" / raw[2:]
+        return Path(tempfile.gettempdir()) / raw[2:]
     return Path(bpy.path.abspath(raw))
+
+
+def unsaved_output(settings) -> str:
+    """Where the output goes when it is not where the panel's Output says (`//` of an unsaved
+    .blend file: a temporary folder), as the panel and the jobs' reports say it; "" otherwise."""
+    raw = settings.output_dir or "//occlux/"
+    if not raw.startswith("//") or bpy.data.filepath:
+        return ""
+    return f"the .blend file is unsaved: Output {raw} is {output_dir(settings)}"
 
 
 def report_dir(settings) -> Path:
@@ -38,15 +47,21 @@ def report_dir(settings) -> Path:
     return Path(bpy.path.abspath("//")) if bpy.data.filepath else output_dir(settings)
 
 
-# The core's messages name the CLI's flags; in Blender the panel's Device menu is the setting.
+# The core's messages name the CLI's flags and the scene file's keys; in Blender they are the
+# panel's settings (the Device menu), or the panel has none (a replacement for non-finite
+# voxels): then the message says what to do instead.
 PANEL_WORDS = {
     "--device cpu": "Device: CPU in the Occlux panel",
     "--device gpu": "Device: GPU in the Occlux panel",
+    "unless a replacement value is given (scene key volume.replace_non_finite)": (
+        "(the Occlux panel has no replacement for them: replace them in the file, or load it "
+        "with the occlux CLI and a scene file's volume.replace_non_finite)"
+    ),
 }
 
 
 def panel_words(message: str) -> str:
-    """A core message with the CLI's flags named as the panel's settings."""
+    """A core message with the CLI's flags and scene keys named as the panel's settings."""
     for flag, setting in PANEL_WORDS.items():
         message = message.replace(flag, setting)
     return message
@@ -300,6 +315,9 @@ class OccluxJob:
         wm.progress_end()
 
     def succeeded(self, context: bpy.types.Context, message: str, notices: list[str]) -> set[str]:
+        elsewhere = unsaved_output(context.scene.occlux)
+        if elsewhere:
+            message += f" ({elsewhere})"
         for notice in notices:
             self.report({"WARNING"}, notice)
             message += f"; {notice}"

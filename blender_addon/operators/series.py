@@ -210,7 +210,7 @@ class OCCLUX_OT_import_series(bpy.types.Operator):
                 owned=False,
                 sequence=series.sequence,
             )
-            ao = settings.ao_shading if "ao" in series.grids else None
+            ao = material.ao_shading(settings.ao_shading) if "ao" in series.grids else None
             obj = show(context, shown, ao, None)
         except (OSError, ValueError) as e:
             self.report({"ERROR"}, str(e))

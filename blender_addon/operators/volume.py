@@ -6,15 +6,18 @@ makes the Volume object and its material for these and for Load Series (`series.
 
 from __future__ import annotations
 
+import hashlib
+import json
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import bpy
+import numpy as np
 import occlux
 
-from .. import material, scenes
+from .. import eevee, material, scenes
 from .jobs import JobProgress, OccluxJob, output_dir
 
 
@@ -28,11 +31,74 @@ class Loaded:
     volume: Any
 
 
-def write_grids(vdb: Path, grids: dict) -> None:
-    """The core's writer, atomic (a temporary file in the folder, renamed when complete): a
+def named_vdb(settings, source: scenes.VolumeInput, kind: str, depends: dict) -> Path:
+    """The VDB of `source` in the output folder named by what it holds, STEM-KIND-HASH.vdb
+    (STEM-HASH.vdb without a `kind`): HASH is the first 12 hex digits of the SHA-256 of the
+    volume as placed (the resolved file, its raw layout and size), its classification and
+    `depends` (the method's settings). The same file with other settings gets another file, so
+    a .blend saved earlier goes on rendering the grids it was made with."""
+    volume = {k: v for k, v in source.section().items() if k != "memory_budget_gib"}
+    holds = {"volume": volume, "classification": scenes.classification_section(settings)}
+    text = json.dumps({**holds, **depends}, sort_keys=True)
+    digest = hashlib.sha256(text.encode()).hexdigest()[:12]
+    name = f"{source.stem}-{kind}-{digest}" if kind else f"{source.stem}-{digest}"
+    return output_dir(settings) / f"{name}.vdb"
+
+
+# Grids kept at float32: the extinction (any range) and the sweep's level set. The others (the
+# visibility `ao` in [0, 1], the bake's light per unit strength) are stored as half floats when
+# they fit (|v| <= HALF_MAX): 11 significant bits, a relative rounding of at most 2^-11 (4.9e-4),
+# far below the noise of any render of them.
+FULL_PRECISION = ("density", "sdf")
+HALF_MAX = 65504.0
+# A half float holds every integer up to 2^11 exactly: a scan's integer values (8-bit, or CT
+# numbers to 2048) stored so lose nothing, so `value` is half when its values are such.
+HALF_INTEGERS = 2048.0
+
+
+def half_grids(grids: dict[str, occlux.Volume]) -> list[str]:
+    """The grids that `write_grids` stores as half floats (see FULL_PRECISION)."""
+    halves = []
+    for name, volume in grids.items():
+        values = np.asarray(volume.values)
+        largest = float(np.abs(values).max())
+        if name == "value":
+            fits = largest <= HALF_INTEGERS and bool(np.all(values == np.round(values)))
+        else:
+            fits = name not in FULL_PRECISION and largest <= HALF_MAX
+        if fits:
+            halves.append(name)
+    return halves
+
+
+def write_grids(vdb: Path, grids: dict[str, occlux.Volume]) -> None:
+    """The core's writer, zlib-compressed and each grid at the precision its values need
+    (`half_grids`), atomic (a temporary file in the folder, renamed when complete): a
     cancelled or failed job never leaves a partial file under the name Blender would load."""
     vdb.parent.mkdir(parents=True, exist_ok=True)
-    occlux.write_vdb(vdb, grids)
+    occlux.write_vdb(vdb, grids, compression="zip", half=half_grids(grids))
+
+
+def load_work(
+    scene: occlux.Scene, source: scenes.VolumeInput, vdb: Path
+) -> Callable[[JobProgress], Loaded]:
+    """Load Volume's work: the volume classified, its `density` and `value` grids in `vdb`."""
+
+    def work(progress: JobProgress) -> Loaded:
+        volume = scenes.load_volume(scene, source)
+        classification = scene.classification
+        density = classification.extinction(volume)
+        write_grids(vdb, {"density": density, "value": volume})
+        return Loaded(vdb, source, classification, volume)
+
+    return work
+
+
+def unclamped(context: bpy.types.Context) -> str:
+    """Sets EEVEE's indirect light in volumes unclamped (`eevee.UNCLAMPED`), as a report says
+    it ("" when it was)."""
+    changed = eevee.change(context.scene, eevee.UNCLAMPED)
+    return f"; set {', '.join(changed)} (the world lights volumes in EEVEE)" if changed else ""
 
 
 class OCCLUX_OT_import_volume(OccluxJob, bpy.types.Operator):
@@ -46,20 +112,12 @@ class OCCLUX_OT_import_volume(OccluxJob, bpy.types.Operator):
         settings = context.scene.occlux
         source = scenes.VolumeInput.from_settings(settings)
         scene = scenes.build(scenes.volume_tree(source, settings))
-        vdb = output_dir(settings) / f"{source.stem}.vdb"
-
-        def work(progress: JobProgress) -> Loaded:
-            volume = scenes.load_volume(scene, source)
-            classification = scene.classification
-            density = classification.extinction(volume)
-            write_grids(vdb, {"density": density, "value": volume})
-            return Loaded(vdb, source, classification, volume)
-
-        return work
+        return load_work(scene, source, named_vdb(settings, source, "", {}))
 
     def finish(self, context: bpy.types.Context, result: Loaded) -> str:
-        obj = show_volume(context, result, None, None)
-        return f"loaded {result.source.path.name} as '{obj.name}' ({result.vdb})"
+        obj = show_volume(context, result, PLAIN, None, None)
+        told = unclamped(context)
+        return f"loaded {result.source.path.name} as '{obj.name}' ({result.vdb}){told}"
 
 
 # The AO methods that compute the visibility (no radius: they reach the whole volume).
@@ -112,13 +170,16 @@ class OCCLUX_OT_compute_ao(OccluxJob, bpy.types.Operator):
 
     def prepare(self, context: bpy.types.Context) -> Callable[[JobProgress], Loaded]:
         settings = context.scene.occlux
-        source = scenes.selected_source(context)
-        target = scenes.volume_object(context)
+        source, target = scenes.panel_dataset(context)
+        active = scenes.volume_object(context)
         # By name: the object may go while the work runs (then the file's object is found).
         self._target = None if target is None else target.name
+        self._passed_over = None if active is None or active == target else active.name
         scene = scenes.build(scenes.volume_tree(source, settings))
+        if material.ao_shading(settings.ao_shading) is None:  # AO off: Load Volume's grids
+            return load_work(scene, source, named_vdb(settings, source, "", {}))
         method, options, device = settings.ao_method, ao_options(settings), settings.device
-        vdb = output_dir(settings) / f"{source.stem}-ao.vdb"
+        vdb = named_vdb(settings, source, "ao", {"ao_method": method, **options})
 
         def work(progress: JobProgress) -> Loaded:
             volume = scenes.load_volume(scene, source)
@@ -138,9 +199,17 @@ class OCCLUX_OT_compute_ao(OccluxJob, bpy.types.Operator):
     def finish(self, context: bpy.types.Context, result: Loaded) -> str:
         settings = context.scene.occlux
         target = bpy.data.objects.get(self._target) if self._target else None
-        obj = show_volume(context, result, settings.ao_shading, target)
+        shading = material.ao_shading(settings.ao_shading)
+        grids = PLAIN if shading is None else (*PLAIN, "ao")
+        obj = show_volume(context, result, grids, shading, target)
         source = result.source.path.name
-        return f"AO ({ao_label(settings)}) of {source} on '{obj.name}' ({result.vdb})"
+        if shading is None:
+            said = f"AO off: '{obj.name}' shows {source} unshaded, the world lighting every ray"
+        else:
+            said = f"AO ({ao_label(settings)}) of {source} on '{obj.name}'"
+        if self._passed_over is not None:
+            said += f" (the panel's Volume; the active '{self._passed_over}' is left as it was)"
+        return f"{said} ({result.vdb})"
 
 
 # The custom properties that mark the Volume objects Occlux shows: a dataset's (the volume file
@@ -176,11 +245,18 @@ class Shown:
     sequence: FrameSequence | None = None
 
 
+# The grids of Load Volume's VDB, which every VDB of a dataset holds.
+PLAIN = ("density", "value")
+
+
 def show_volume(
-    context: bpy.types.Context, loaded: Loaded, ao: str | None, target: bpy.types.Object | None
+    context: bpy.types.Context,
+    loaded: Loaded,
+    grids: tuple[str, ...],
+    ao: str | None,
+    target: bpy.types.Object | None,
 ) -> bpy.types.Object:
-    """The dataset's Volume object (`show`) for a VDB a job wrote."""
-    grids = ("density", "value") + (() if ao is None else ("ao",))
+    """The dataset's Volume object (`show`) for a VDB a job wrote, holding `grids`."""
     return show(context, dataset_shown(loaded, grids), ao, target)
 
 

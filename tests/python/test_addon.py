@@ -12,6 +12,7 @@ import ast
 import io
 import json
 import os
+import re
 import subprocess
 import sys
 import textwrap
@@ -26,6 +27,8 @@ from occlux_testing import REPO, oiio_read
 
 SHARED = REPO.parent / "shared" / "data" / "scivis"
 RESULT = "OCCLUX-RESULT "
+# Compute AO's VDB of the tooth: named by its settings (SHA-256, 12 hex digits).
+AO_VDB = re.compile(r"tooth-ao-[0-9a-f]{12}\.vdb")
 # A scene for occlux.ao_volume, which reads only its classification.
 AO_SCENE = {"volume": {"phantom": "sphere"}, "camera": {"position": [0, -4, 0]}}
 
@@ -384,6 +387,7 @@ def test_compute_ao_adds_a_volume_shaded_by_its_ao_grid(
         s.ao_factor, s.ao_gamma, s.ao_light = 0.7, 1.5, "sky"
         result["loaded"] = list(bpy.ops.occlux.import_volume())
         loaded = bpy.data.objects[{path.stem!r}]
+        result["loaded_filepath"] = loaded.data.filepath
         loaded.location = (0.5, 0.0, 0.0)  # the user's placement, which AO keeps
         s.volume_path = ""  # AO acts on the active Occlux volume, not on the panel's path
         result["op"] = list(bpy.ops.occlux.compute_ao())
@@ -425,9 +429,13 @@ def test_compute_ao_adds_a_volume_shaded_by_its_ao_grid(
     assert result["material"] == f"Occlux {path.stem}"
     sweep = method == "sweep"
     assert result["grids"] == ["ao", "density"] + ["sdf"] * sweep + ["value"]
-    assert result["filepath"] == str(out / f"{path.stem}-ao.vdb")
+    # Named by the file and its settings (STEM-HASH.vdb, STEM-ao-HASH.vdb): the AO of the
+    # other shading is the same grid, in the same file.
+    vdb, loaded_vdb = Path(result["filepath"]), Path(result["loaded_filepath"])
+    assert vdb.parent == out and re.fullmatch(rf"{path.stem}-ao-[0-9a-f]{{12}}\.vdb", vdb.name)
+    assert re.fullmatch(rf"{path.stem}-[0-9a-f]{{12}}\.vdb", loaded_vdb.name), loaded_vdb
     written = sorted(p.name for p in out.iterdir())
-    assert written == [f"{path.stem}-ao.vdb", f"{path.stem}.vdb"], "no temporary left"
+    assert written == sorted([vdb.name, loaded_vdb.name]), "no temporary left"
     assert "AO" in result["status"] and ("radius 4" in result["status"]) != sweep
     assert result["ao_to"] == ["ShaderNodeMix"]  # mix(1, ao, strength)
     if shading == "ALBEDO":  # the albedo darkened, no emission
@@ -449,10 +457,11 @@ def test_compute_ao_adds_a_volume_shaded_by_its_ao_grid(
     # The sweep takes the panel's gamma and its sky (the four upper octants).
     options = {"gamma": 1.5, "octant_intensities": [1] * 4 + [0] * 4} if sweep else {"radius": 4}
     want = occlux.ao_volume(scene, method=method, device="cpu", volume=fitted, **options)["ao"]
-    grid = openvdb.read(str(out / f"{path.stem}-ao.vdb"), "ao")
+    grid = openvdb.read(str(vdb), "ao")
     got = np.zeros(volume.dims, dtype=np.float32)  # x, y, z
     grid.copyToArray(got, ijk=(0, 0, 0))
-    np.testing.assert_allclose(got.transpose(2, 1, 0), want.values, atol=1e-6)
+    # Stored as half floats: within their rounding (2^-11 relative).
+    np.testing.assert_allclose(got.transpose(2, 1, 0), want.values, rtol=2.0**-11, atol=1e-6)
     assert 0.0 <= want.values.min() < 0.9 and want.values.max() <= 1.0, "some voxels occluded"
     if not sweep:  # 1 = unoccluded, so the material leaves the open air and flat surfaces alone
         assert np.mean(want.values == 1.0) > 0.5, "VAO's raw 1/2 in empty air is not the grid"
@@ -513,7 +522,8 @@ def test_jobs_run_on_a_thread_and_cancel_without_adding_anything(
     assert "cancelled, nothing was added" in output, "the warning reaches the report area"
     assert result["unchanged"], "a cancelled job adds no object, volume or material"
     assert result["invoked"] == ["FINISHED"]
-    assert sorted(p.name for p in out.iterdir()) == ["tooth-ao.vdb"], "the cancel wrote nothing"
+    written = [p.name for p in out.iterdir()]
+    assert len(written) == 1 and AO_VDB.fullmatch(written[0]), "the cancel wrote nothing"
     assert result["other_thread"] and result["polls"] > 1
     assert result["polled_while_running"] is False, "one job at a time"
     assert result["fraction"] is not None and 0.1 < result["fraction"] < 1.0, result["fraction"]
@@ -1111,7 +1121,8 @@ result["object"] = "tooth" in bpy.data.objects
     assert result["unchanged"] and result["files_after_cancel"] == [], output
     state, steps, statuses = result["done"]
     assert state == ["FINISHED"] and result["object"], result["done"]
-    assert sorted(p.name for p in out.iterdir()) == ["tooth-ao.vdb"]
+    written = [p.name for p in out.iterdir()]
+    assert len(written) == 1 and AO_VDB.fullmatch(written[0]), written
     calls = result["done_calls"]
     updates = [c for c in calls if isinstance(c, float)]
     assert updates and all(0.0 <= u <= 1.0 for u in updates), calls
