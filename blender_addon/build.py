@@ -38,6 +38,7 @@ SOURCES = (
     "operators/render.py",
     "truth.py",
     "operators/check.py",
+    "operators/check_baked.py",
     "operators/composite.py",
     "operators/stage.py",
 )

@@ -182,11 +182,14 @@ def baked_material(
     box: tuple[Rgb, Rgb],
     world: bpy.types.World | None,
     lamps: Sequence[BakedLamp],
+    world_multiple: Sequence[str] | None = None,
 ) -> bpy.types.Material:
     """The material of a baked volume (Bake Light): Occlux's classification as in
     `volume_material`, a pure absorber (no scattering colour: Cycles and EEVEE trace no light in
-    it) that emits the baked light, sigma_t * albedo * (L_world * ao + sum over the lamps of
-    strength * colour * (grid / 4 pi + multiple)), plus the transfer function's emission. The
+    it) that emits the baked light, sigma_t * albedo * (L_world * (ao + world_multiple) + sum
+    over the lamps of strength * colour * (grid / 4 pi + multiple)), plus the transfer
+    function's emission (`world_multiple`: the red, green and blue grids of the world's multiply
+    scattered light, if baked). The
     world's radiance (colour node BAKED_WORLD) and each lamp's strength and colour (BAKED_LAMP)
     are driven by the world's Background node and the lamp's data, so they are read whenever
     the material renders; changing them needs no new bake."""
@@ -194,7 +197,7 @@ def baked_material(
     sigma_t, albedo, emitted = _medium(tree, points, box)
     tree.links.new(sigma_t, shader.inputs["Density"])
     shader.inputs["Color"].default_value = (0.0, 0.0, 0.0, 1.0)
-    visible = _as_colour(tree, _grid(tree, "ao"))
+    visible = _plus_multiple(tree, _as_colour(tree, _grid(tree, "ao")), world_multiple)
     light = _colour(tree, "MULTIPLY", _world_light(tree, world, BAKED_WORLD), visible)
     for lamp in lamps:
         light = _colour(tree, "ADD", light, _lamp_light(tree, lamp))
@@ -296,12 +299,18 @@ def _lamp_light(tree: bpy.types.NodeTree, lamp: BakedLamp):
 
     strength = _driven_colour(tree, BAKED_LAMP.format(lamp.name), drive)
     once = _as_colour(tree, _math(tree, "MULTIPLY", _grid(tree, lamp.grid), INV_4PI))
-    if lamp.multiple is not None:
-        channels = tree.nodes.new("ShaderNodeCombineColor")
-        for socket, grid in zip(channels.inputs[:3], lamp.multiple, strict=True):
-            tree.links.new(_grid(tree, grid), socket)
-        once = _colour(tree, "ADD", once, channels.outputs["Color"])
-    return _colour(tree, "MULTIPLY", strength, once)
+    return _colour(tree, "MULTIPLY", strength, _plus_multiple(tree, once, lamp.multiple))
+
+
+def _plus_multiple(tree: bpy.types.NodeTree, once, multiple: Sequence[str] | None):
+    """The colour socket `once` plus the colour of the red, green and blue grids `multiple`
+    (a light's multiply scattered light), if baked."""
+    if multiple is None:
+        return once
+    channels = tree.nodes.new("ShaderNodeCombineColor")
+    for socket, grid in zip(channels.inputs[:3], multiple, strict=True):
+        tree.links.new(_grid(tree, grid), socket)
+    return _colour(tree, "ADD", once, channels.outputs["Color"])
 
 
 def _principled(name: str):

@@ -83,6 +83,9 @@ class VIEW3D_PT_occlux(bpy.types.Panel):
         column.prop(settings, "check_subject")
         if settings.check_subject == "FIGURE":
             column.prop(settings, "check_method")
+        elif settings.check_subject == "BAKED":
+            column.prop(settings, "check_engine")
+            column.prop(settings, "check_engine_samples")
         else:
             column.prop(settings, "check_estimator")
         column.prop(settings, "check_size")
@@ -91,11 +94,11 @@ class VIEW3D_PT_occlux(bpy.types.Panel):
         layout.operator("occlux.check_cycles", icon="RENDER_STILL")
         if settings.check_report:
             box = layout.box()
-            if settings.check_report.endswith("-figure-report.json"):
+            if settings.check_report.endswith(("-figure-report.json", "-baked-report.json")):
                 box.label(text=f"Relative RMSE {settings.check_rel_rmse:.3f}")
                 box.label(text=f"Bias {settings.check_bias:+.1%}")
                 box.label(
-                    text=f"Occlux {settings.check_occlux_seconds:.2f} s, "
+                    text=f"{settings.check_checked} {settings.check_occlux_seconds:.2f} s, "
                     f"Cycles {settings.check_cycles_seconds:.1f} s"
                 )
             else:

@@ -215,8 +215,8 @@ class OccluxSettings(bpy.types.PropertyGroup):
     )
     bake_multiple: bpy.props.BoolProperty(
         name="Multiple scattering",
-        description="Bake Light also bakes each lamp's multiply scattered light (8 bounces, "
-        "solved on the volume's grid; the phase asymmetry is IPSVI's g)",
+        description="Bake Light also bakes the world's and each lamp's multiply scattered light "
+        "(8 bounces, solved on the volume's grid; the phase asymmetry is IPSVI's g)",
         default=True,
     )
     dos_theta_deg: _registry_float("Cone angle", DOS["theta_deg"], precision=1)  # max 89.9
@@ -285,12 +285,35 @@ class OccluxSettings(bpy.types.PropertyGroup):
                 "relative RMSE and bias over the volume's pixels, times, error map",
             ),
             (
+                "BAKED",
+                "The baked scene",
+                "The scene as it stands, with Bake Light's grids, rendered by the chosen engine "
+                "against Cycles' path-traced truth of the same scene without the bake",
+            ),
+            (
                 "REFERENCE",
                 "Validate the reference",
                 "Occlux's Monte Carlo reference against Cycles, within noise (z scores)",
             ),
         ],
         default="FIGURE",
+    )
+    check_engine: EnumProperty(
+        name="Engine",
+        description="The engine that renders the baked scene for the check",
+        items=[
+            ("EEVEE", "EEVEE", "EEVEE with the scene's settings (Bake Light's froxels, scaled "
+             "to the check's image)"),
+            ("CYCLES", "Cycles", "Cycles at the engine samples, with the bake's ray marching"),
+        ],
+        default="EEVEE",
+    )  # fmt: skip
+    check_engine_samples: IntProperty(
+        name="Engine samples",
+        description="Samples per pixel of the engine's render of the baked scene",
+        min=1,
+        soft_max=1024,
+        default=16,
     )
     check_method: EnumProperty(
         name="Method",
@@ -322,7 +345,8 @@ class OccluxSettings(bpy.types.PropertyGroup):
     )
     check_spp: IntProperty(
         name="Check samples",
-        description="Samples per pixel, for Occlux and for Cycles",
+        description="Samples per pixel, for Occlux and for Cycles (Cycles' truth, for the "
+        "baked scene)",
         min=2,
         soft_max=4096,
         default=128,
@@ -342,7 +366,8 @@ class OccluxSettings(bpy.types.PropertyGroup):
     check_agrees: bpy.props.BoolProperty(name="Agree", options={"SKIP_SAVE"})
     check_rel_rmse: FloatProperty(name="Relative RMSE", options={"SKIP_SAVE"})
     check_bias: FloatProperty(name="Bias", options={"SKIP_SAVE"})
-    check_occlux_seconds: FloatProperty(name="Occlux time", options={"SKIP_SAVE"})
+    check_checked: StringProperty(name="Checked render", options={"SKIP_SAVE"})
+    check_occlux_seconds: FloatProperty(name="Checked render's time", options={"SKIP_SAVE"})
     check_cycles_seconds: FloatProperty(name="Cycles time", options={"SKIP_SAVE"})
     check_report: StringProperty(name="Check report", subtype="FILE_PATH", options={"SKIP_SAVE"})
 

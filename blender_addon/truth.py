@@ -16,7 +16,7 @@ Plain data API (no operators), so it works headless."""
 
 from __future__ import annotations
 
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass
 
 import bpy
@@ -47,16 +47,19 @@ def figure_truth(
     bounces: int,
     g: float,
     size: tuple[int, int],
+    plain: Callable[[], bpy.types.Material] | None = None,
 ) -> Truth:
     """The scene of `context` with the volume object `obj`, as Cycles' truth of a method lit by
     the lights of `kinds` (`scenes.WORLD`, `SUN`, `POINT`), with `bounces` volume bounces and
-    phase asymmetry `g`, rendered at `size` (width, height). Data of a previous build goes
-    first."""
+    phase asymmetry `g`, rendered at `size` (width, height). The volume shows its own materials
+    with the AO off, or the material that `plain` makes in every slot (the check of a baked
+    scene: its unbaked material, named with the harness's prefix so that it goes with the rest).
+    Data of a previous build goes first."""
     kinds = set(kinds)
     user = context.scene
     ob.remove_built()
     truth = bpy.data.scenes.new(f"{ob.PREFIX}-figure")
-    volume = _volume_copy(obj, g)
+    volume = _volume_copy(obj, g, None if plain is None else plain())
     truth.collection.objects.link(volume)
     truth.collection.objects.link(user.camera)
     truth.camera = user.camera
@@ -84,12 +87,14 @@ def figure_truth(
         "lamps": [lamp.name for lamp in lamps],
         "camera": user.camera.name,
     }
-    return Truth(truth, holds, _notes(user, obj))
+    return Truth(truth, holds, _notes(user, obj, placed_by_occlux=plain is None))
 
 
-def _volume_copy(obj: bpy.types.Object, g: float) -> bpy.types.Object:
+def _volume_copy(
+    obj: bpy.types.Object, g: float, plain: bpy.types.Material | None
+) -> bpy.types.Object:
     """A copy of the volume object (same data, same transform) whose material slots hold copies
-    of its materials with the AO off (`material.without_ao`)."""
+    of its materials with the AO off (`material.without_ao`), or `plain`."""
     shadings = [slot.material for slot in obj.material_slots]
     if not any(shadings):
         raise ValueError(f"the volume object '{obj.name}' has no material: load it again")
@@ -98,17 +103,21 @@ def _volume_copy(obj: bpy.types.Object, g: float) -> bpy.types.Object:
     for slot, shading in zip(copy.material_slots, shadings, strict=True):
         if shading is None:
             continue
-        truth_shading = shading.copy()
-        truth_shading.name = f"{ob.PREFIX}-{shading.name}"
+        if plain is None:
+            truth_shading = shading.copy()
+            truth_shading.name = f"{ob.PREFIX}-{shading.name}"
+        else:
+            truth_shading = plain
         material.without_ao(truth_shading, g)
         slot.link = "OBJECT"  # the copy's own material; the shared data keeps the user's
         slot.material = truth_shading
     return copy
 
 
-def _notes(user: bpy.types.Scene, obj: bpy.types.Object) -> list[str]:
-    """What the check leaves out of the user's scene, and a moved volume object (Occlux renders
-    the volume where Load Volume placed it)."""
+def _notes(user: bpy.types.Scene, obj: bpy.types.Object, placed_by_occlux: bool) -> list[str]:
+    """What the check leaves out of the user's scene, and a moved volume object where the check
+    compares with Occlux's render (`placed_by_occlux`: Occlux renders the volume where Load
+    Volume placed it)."""
     notes = []
     others = [
         o.name
@@ -118,6 +127,8 @@ def _notes(user: bpy.types.Scene, obj: bpy.types.Object) -> list[str]:
     if others:
         names = ", ".join(f"'{name}'" for name in others)
         notes.append(f"not in the check: {names} (Occlux renders the volume alone)")
+    if not placed_by_occlux:
+        return notes
     identity = Matrix.Identity(4)
     moved = any(
         abs(obj.matrix_world[i][j] - identity[i][j]) > 1e-6 for i in range(4) for j in range(4)

@@ -47,7 +47,8 @@ def baked_lamps(scene: bpy.types.Scene) -> list[bpy.types.Object]:
 
 def fingerprint(context: bpy.types.Context, lamps: list[bpy.types.Object]) -> dict:
     """What a bake depends on beyond strengths and colours: each lamp's name, type and place,
-    the volume file and its classification."""
+    the volume file and its classification, the phase asymmetry and whether multiple scattering
+    is baked."""
     settings = context.scene.occlux
     return {
         "lamps": [
@@ -56,6 +57,7 @@ def fingerprint(context: bpy.types.Context, lamps: list[bpy.types.Object]) -> di
         ],
         "source": scenes.selected_source(context).setting,
         "classification": scenes.classification_section(settings),
+        "scattering": {"g": round(settings.ipsvi_g, 6), "multiple": settings.bake_multiple},
     }
 
 
@@ -67,6 +69,8 @@ def outdated(context: bpy.types.Context, obj: bpy.types.Object | None) -> str:
     now = fingerprint(context, baked_lamps(context.scene))
     if now["source"] != before["source"] or now["classification"] != before["classification"]:
         return "the volume or its classification changed"
+    if now["scattering"] != before.get("scattering"):
+        return "the anisotropy or Multiple scattering changed"
     was = {name: (kind, place) for name, kind, place in before["lamps"]}
     is_ = {name: (kind, place) for name, kind, place in now["lamps"]}
     for name in sorted(was.keys() | is_.keys()):
@@ -103,6 +107,7 @@ def lamp_section(obj: bpy.types.Object, lamp: bpy.types.Object) -> dict:
 class Baked:
     loaded: Loaded
     lamps: tuple[material.BakedLamp, ...]
+    world_multiple: tuple[str, str, str] | None
     fingerprint: dict
 
 
@@ -152,7 +157,8 @@ class OCCLUX_OT_bake_light(OccluxJob, bpy.types.Operator):
                 )
                 for i, lamp in enumerate(lamps)
             )
-            return Baked(Loaded(vdb, source, classification, volume), baked, seen)
+            world = tuple(f"ao_multiple_{c}" for c in "rgb") if multiple else None
+            return Baked(Loaded(vdb, source, classification, volume), baked, world, seen)
 
         return work
 
@@ -166,7 +172,9 @@ class OCCLUX_OT_bake_light(OccluxJob, bpy.types.Operator):
         target = bpy.data.objects.get(self._target)
 
         def shading(name: str) -> bpy.types.Material:
-            return material.baked_material(name, shown.points, shown.box, scene.world, result.lamps)
+            return material.baked_material(
+                name, shown.points, shown.box, scene.world, result.lamps, result.world_multiple
+            )
 
         obj = show(context, shown, None, target, shading)
         obj[BAKED] = json.dumps(result.fingerprint)

@@ -28,6 +28,7 @@ import numpy as np
 import occlux
 
 from .. import scenes, truth
+from . import check_baked
 from .jobs import JobProgress, OccluxJob, Step, Steps, report_dir
 from .render import dos_section, ipsvi_section
 from .volume import ao_section
@@ -123,6 +124,47 @@ def cycles_renders(scene: Any, spp: int, seeds: int) -> Generator[Step, None, An
         renders.close()
 
 
+def write_figure_check(
+    settings,
+    stem: str,
+    checked: str,
+    image: np.ndarray,
+    cycles: Any,
+    background: float,
+    fields: dict,
+) -> tuple[dict, str, float]:
+    """The figures of a checked image against Cycles' truth (docs/architecture.md#error-measure:
+    relative RMSE and bias over the volume's pixels), written beside the .blend as STEM-report.json
+    (`fields` and the figures), STEM.exr (the image as layer `checked`, Cycles' mean and standard
+    error) and STEM-errormap.png (loaded as a Blender image), and shown in the panel. Returns
+    the figures, the error map's image name and its colour key's range."""
+    figures = occlux.image_error(image, cycles.mean, background, cycles.stderr)
+    out = report_dir(settings)
+    out.mkdir(parents=True, exist_ok=True)
+    error_map = out / f"{stem}-errormap.png"
+    key = occlux.write_error_map(error_map, image, cycles.mean, background)
+    layers = {checked: image, "cycles": cycles.mean, "cycles_stderr": cycles.stderr}
+    occlux.write_exr_layers(out / f"{stem}.exr", layers, float32=True)
+    report = {
+        **fields,
+        "size": list(image.shape[1::-1]),
+        "cycles_spp": settings.check_spp,
+        "cycles_seeds": settings.check_seeds,
+        **figures,
+        "cycles_seconds": cycles.seconds,
+        "error_map_range": key,
+    }
+    report_path = out / f"{stem}-report.json"
+    occlux.write_text(report_path, json.dumps(report, indent=2) + "\n")
+    map_image = bpy.data.images.load(str(error_map), check_existing=True)
+    map_image.reload()  # a previous check's map of the same name
+    settings.check_rel_rmse = figures["rel_rmse"]
+    settings.check_bias = figures["bias"]
+    settings.check_cycles_seconds = cycles.seconds
+    settings.check_report = str(report_path)
+    return figures, map_image.name, key
+
+
 def truth_of(method: str, settings) -> tuple[str, int, float]:
     """Cycles' estimator, volume bounces and phase asymmetry for the truth of `method`'s
     lighting: the world scattered once for AO and DOS; IPSVI's lamps scattered once, or
@@ -144,13 +186,20 @@ class OCCLUX_OT_check_cycles(OccluxJob, bpy.types.Operator):
     bl_options = {"REGISTER"}
 
     def prepare(self, context: bpy.types.Context) -> Callable[[JobProgress], Any]:
-        if context.scene.occlux.check_subject == "FIGURE":
+        subject = context.scene.occlux.check_subject
+        self._left_out = ""
+        if subject == "FIGURE":
             return self.prepare_figure(context)
+        if subject == "BAKED":
+            size = image_size(context.scene.render, context.scene.occlux.check_size)
+            return check_baked.prepare(context, size)
         return self.prepare_reference(context)
 
     def finish_steps(self, context: bpy.types.Context, result: Any) -> Steps:
         if isinstance(result, Figure):
             message = yield from self.finish_figure(context, result)
+        elif isinstance(result, check_baked.BakedCheck):
+            message = yield from self.finish_baked(context, result)
         else:
             message = yield from self.finish_reference(context, result)
         return f"{message}; {self._left_out}" if self._left_out else message
@@ -199,42 +248,59 @@ class OCCLUX_OT_check_cycles(OccluxJob, bpy.types.Operator):
         notes = "; ".join(built.notes)
         self._left_out = "; ".join(n for n in (self._left_out, notes) if n)
         background = float(np.mean(figure.tree["background"]))
-        figures = occlux.image_error(figure.image, cycles.mean, background, cycles.stderr)
-        out = report_dir(settings)
-        out.mkdir(parents=True, exist_ok=True)
-        stem = f"{figure.stem}-{figure.method}-figure"
-        error_map = out / f"{stem}-errormap.png"
-        key = occlux.write_error_map(error_map, figure.image, cycles.mean, background)
-        layers = {"occlux": figure.image, "cycles": cycles.mean, "cycles_stderr": cycles.stderr}
-        occlux.write_exr_layers(out / f"{stem}.exr", layers, float32=True)
-        report = {
+        fields = {
             "source": str(figure.tree["volume"]["path"]),
             "method": figure.tree["render"],
             "truth": {"estimator": figure.estimator, "bounces": figure.bounces, "g": figure.g},
-            "size": list(figure.image.shape[1::-1]),
             "cycles_scene": built.holds,
-            "cycles_spp": spp,
-            "cycles_seeds": seeds,
-            **figures,
             "occlux_seconds": figure.seconds,
-            "cycles_seconds": cycles.seconds,
-            "error_map_range": key,
             "left_out": self._left_out,
         }
-        report_path = out / f"{stem}-report.json"
-        occlux.write_text(report_path, json.dumps(report, indent=2) + "\n")
-        image = bpy.data.images.load(str(error_map), check_existing=True)
-        image.reload()  # a previous check's map of the same name
-        settings.check_rel_rmse = figures["rel_rmse"]
-        settings.check_bias = figures["bias"]
+        stem = f"{figure.stem}-{figure.method}-figure"
+        figures, map_name, key = write_figure_check(
+            settings, stem, "occlux", figure.image, cycles, background, fields
+        )
+        settings.check_checked = "Occlux"
         settings.check_occlux_seconds = figure.seconds
-        settings.check_cycles_seconds = cycles.seconds
-        settings.check_report = str(report_path)
         return (
             f"{figure.method} vs Cycles ({figure.estimator}, {spp} spp): relative RMSE "
             f"{figures['rel_rmse']:.3f}, bias {figures['bias']:+.1%} over {figures['pixels']} "
             f"pixels (Cycles' noise {figures['noise']:.3f}); Occlux {figure.seconds:.2f} s, "
-            f"Cycles {cycles.seconds:.1f} s; error map '{image.name}' (+-{key:.0%})"
+            f"Cycles {cycles.seconds:.1f} s; error map '{map_name}' (+-{key:.0%})"
+        )
+
+    def finish_baked(self, context: bpy.types.Context, check: check_baked.BakedCheck) -> Steps:
+        settings = context.scene.occlux
+        engine, samples = settings.check_engine, settings.check_engine_samples
+        image, seconds, built, cycles = yield from check_baked.finish(
+            context, check, cycles_renders
+        )
+        self._left_out = "; ".join(built.notes)
+        fields = {
+            "source": settings.volume_path,
+            "engine": engine,
+            "engine_samples": samples,
+            "engine_seconds": seconds,
+            "background": check.background,
+            "truth": {
+                "bounces": check_baked.MULTIPLE_BOUNCES if check.multiple else 0,
+                "g": check.g,
+            },
+            "cycles_scene": built.holds,
+            "left_out": self._left_out,
+        }
+        stem = f"{check.stem}-{engine.lower()}-baked"
+        figures, map_name, key = write_figure_check(
+            settings, stem, "baked", image, cycles, check.background, fields
+        )
+        settings.check_checked = f"{engine.capitalize()} {samples} spp"
+        settings.check_occlux_seconds = seconds
+        return (
+            f"baked scene in {engine} ({samples} spp) vs Cycles' truth ({settings.check_spp} "
+            f"spp): relative RMSE {figures['rel_rmse']:.3f}, bias {figures['bias']:+.1%} over "
+            f"{figures['pixels']} pixels (Cycles' noise {figures['noise']:.3f}); {engine} "
+            f"{seconds:.2f} s, Cycles {cycles.seconds:.1f} s; error map '{map_name}' "
+            f"(+-{key:.0%})"
         )
 
     def truth_scene(self, context: bpy.types.Context, figure: Figure) -> truth.Truth:
