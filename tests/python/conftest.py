@@ -77,10 +77,11 @@ def gpu_device() -> str:
 @pytest.fixture(scope="session")
 def extension(tmp_path_factory) -> Path:
     """The extension zip, built once per run with the add-on's build script (maturin wheel
-    inside), for every test that installs it in Blender."""
+    inside, for this machine's glibc: the portable wheel would build every dependency again),
+    for every test that installs it in Blender."""
     out = tmp_path_factory.mktemp("dist")
     subprocess.run(
-        [sys.executable, str(REPO / "blender_addon" / "build.py"), "--out", str(out)],
+        [sys.executable, str(REPO / "blender_addon" / "build.py"), "--native", "--out", str(out)],
         check=True,
         capture_output=True,
     )
