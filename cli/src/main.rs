@@ -22,8 +22,8 @@ use occlux::scene::Scene;
 use occlux::series::SeriesOptions;
 use occlux::volume::{self, LoadOptions, RawSpec, ScalarType};
 use occlux_lab::{
-    bench, chart, dos_accuracy, gallery, ipsvi_accuracy, plan_check, sweep_accuracy, sweep_bench,
-    vao_accuracy, vao_bench,
+    adapter, bench, chart, dos_accuracy, gallery, ipsvi_accuracy, plan_check, sweep_accuracy,
+    sweep_bench, vao_accuracy, vao_bench,
 };
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -138,9 +138,13 @@ enum Command {
         #[command(flatten)]
         output: OutputArgs,
     },
-    /// Time unshaded and gradient DVR, DOS (n = 2, 5, 13), IPSVI and half-angle slicing on CPU
-    /// and GPU (median after warm-up), as ratios to gradient DVR; table and JSON.
+    /// Time every rendering method (DOS at n = 2, 5, 13) on CPU and GPU (median after
+    /// warm-up) on a volume file or the CT phantom at several sides, as ratios to gradient DVR;
+    /// table and JSON with the GPU adapter.
     Bench(bench::BenchArgs),
+    /// Open the GPU adapter Occlux uses and describe it (name, driver, backend, device type);
+    /// --hardware refuses a software rasterizer (lavapipe, WARP).
+    Adapter(adapter::AdapterArgs),
     /// Time VAO volumes at several radii on CPU and GPU (median after warm-up); table and JSON.
     BenchAo(vao_bench::VaoBenchArgs),
     /// Accuracy of the fast VAO estimates against the exact count and Monte Carlo, over
@@ -477,6 +481,7 @@ fn run(cli: Cli) -> occlux::Result<()> {
             Ok(())
         }
         Command::Bench(args) => bench::run(&args, quiet),
+        Command::Adapter(args) => adapter::run(&args, quiet),
         Command::BenchAo(args) => vao_bench::run(&args, quiet),
         Command::AoAccuracy(args) => vao_accuracy::run(&args, quiet),
         Command::DosAccuracy(args) => dos_accuracy::run(&args, quiet),

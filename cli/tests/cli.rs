@@ -1044,19 +1044,24 @@ fn bench_times_the_registered_methods_and_records_their_parameters() {
             "--sizes",
             "8",
             "--repeats",
-            "1",
+            "3",
+            // Any render outlasts a microsecond: one timed run each, not three.
+            "--case-seconds",
+            "1e-6",
             "--device",
             "cpu",
         ],
         &json,
     );
     let rows = report["rows"].as_array().unwrap();
+    assert!(rows.iter().all(|r| r["repeats"] == 1), "{rows:?}");
     let cases: Vec<&str> = rows.iter().map(|r| r["method"].as_str().unwrap()).collect();
     assert_eq!(
         cases,
         [
             "unshaded",
             "gradient",
+            "ao",
             "dos-n2",
             "dos-n5",
             "dos-n13",
@@ -1071,9 +1076,139 @@ fn bench_times_the_registered_methods_and_records_their_parameters() {
             .as_str()
             .unwrap()
             .starts_with(method.spec().name));
+        assert_eq!(row["volume_dims"], serde_json::json!([256, 256, 128]));
     }
-    assert_eq!(rows[3]["params"]["grid"], 5);
+    assert_eq!(rows[4]["params"]["grid"], 5);
     assert_eq!(rows[1]["ratio_to_gradient"], 1.0);
+    assert!(report["adapter"].is_null(), "the CPU alone has no adapter");
+}
+
+/// The GPU check's run (bench/gpu-check.sh), tiny: `occlux bench` on the CT phantom at two sides,
+/// two image sizes, both devices (lavapipe in CI) holds the adapter as wgpu describes it, the
+/// machine's cores, and a row for every registered method x device x image size x volume, each
+/// with a finite positive median of the repeats asked for. No time is asserted.
+#[test]
+fn bench_on_phantoms_times_every_method_device_and_size_and_names_the_gpu() {
+    use occlux::registry::METHODS;
+    let out = tempfile::tempdir().unwrap();
+    let json = out.path().join("bench.json");
+    let report = succeeds_with_report(
+        &[
+            "bench",
+            "--volume-sizes",
+            "12,16",
+            "--sizes",
+            "8,10",
+            "--repeats",
+            "2",
+            "--device",
+            "both",
+            "--json",
+            json.to_str().unwrap(),
+        ],
+        &json,
+    );
+    let adapter = &report["adapter"];
+    for key in ["name", "driver", "driver_info", "backend", "device_type"] {
+        assert!(adapter[key].is_string(), "adapter.{key} in {adapter}");
+    }
+    assert!(!adapter["name"].as_str().unwrap().is_empty());
+    assert!(adapter["software"].is_boolean());
+    assert!(report["cpu_count"].as_u64().unwrap() >= 1);
+    assert_eq!(report["volume"], "phantom ct");
+    assert_eq!(report["warmup_runs"], 1);
+    let rows = report["rows"].as_array().unwrap();
+    let devices = ["CPU", "GPU"];
+    let methods: Vec<&str> = rows.iter().map(|r| r["method"].as_str().unwrap()).collect();
+    for spec in METHODS {
+        assert!(
+            methods.iter().any(|m| m.starts_with(spec.name)),
+            "{}",
+            spec.name
+        );
+    }
+    // The first device, volume and size's cases: every other group has the same.
+    let cases = rows.len() / (devices.len() * 2 * 2);
+    assert_eq!(rows.len(), cases * devices.len() * 2 * 2);
+    for device in devices {
+        for side in [12, 16] {
+            for size in [8, 10] {
+                let here: Vec<&serde_json::Value> = rows
+                    .iter()
+                    .filter(|r| {
+                        r["device"].as_str().unwrap().starts_with(device)
+                            && r["volume_dims"] == serde_json::json!([side, side, side])
+                            && r["size"] == size
+                    })
+                    .collect();
+                let named: Vec<&str> = here.iter().map(|r| r["method"].as_str().unwrap()).collect();
+                assert_eq!(named, methods[..cases], "{device} {side}^3 {size}^2");
+                for row in here {
+                    let median = row["median_ms"].as_f64().unwrap();
+                    assert!(median.is_finite() && median > 0.0, "{row}");
+                    assert_eq!(row["repeats"], 2);
+                }
+            }
+        }
+    }
+}
+
+#[test]
+fn bench_refuses_bad_options_by_name_before_timing_anything() {
+    let out = tempfile::tempdir().unwrap();
+    let bad = out.path().join("bad.json");
+    for (args, key) in [
+        (vec!["--sizes", "0"], "--sizes"),
+        (vec!["--sizes", "100000"], "--sizes"),
+        (vec!["--volume-sizes", "0"], "--volume-sizes"),
+        (vec!["--volume-sizes", "64,5000"], "--volume-sizes"),
+        (vec!["--repeats", "0"], "--repeats"),
+        (vec!["--repeats", "1000000"], "--repeats"),
+        (vec!["--case-seconds", "0"], "--case-seconds"),
+        (vec!["--case-seconds", "nan"], "--case-seconds"),
+        (vec!["--device", "tpu"], "--device"),
+        (
+            vec!["--volume", "x.nrrd", "--volume-sizes", "64"],
+            "--volume",
+        ),
+    ] {
+        let mut all = vec!["bench", "--device", "cpu", "-o", bad.to_str().unwrap()];
+        all.extend(args);
+        let run = occlux(&all);
+        let stderr = String::from_utf8_lossy(&run.stderr);
+        assert!(
+            !run.status.success() && stderr.contains(key),
+            "{all:?}: {stderr}"
+        );
+        assert!(!bad.exists());
+    }
+}
+
+/// `occlux adapter` describes the adapter as the bench records it; `--hardware` refuses a
+/// software rasterizer (lavapipe in CI) with an error naming it and writes nothing, and lets a
+/// hardware GPU through.
+#[test]
+fn adapter_describes_the_gpu_and_hardware_refuses_a_software_one() {
+    let out = tempfile::tempdir().unwrap();
+    let json = out.path().join("adapter.json");
+    let adapter = report_of(&["adapter"], &json);
+    for key in ["name", "driver", "driver_info", "backend", "device_type"] {
+        assert!(adapter[key].is_string(), "{key} in {adapter}");
+    }
+    let software = adapter["software"].as_bool().unwrap();
+    assert_eq!(software, adapter["device_type"] == "Cpu");
+    let refused = out.path().join("refused.json");
+    let run = occlux(&["adapter", "--hardware", "-o", refused.to_str().unwrap()]);
+    let stderr = String::from_utf8_lossy(&run.stderr);
+    if software {
+        assert!(
+            !run.status.success() && stderr.contains("software rasterizer"),
+            "{stderr}"
+        );
+        assert!(!refused.exists());
+    } else {
+        assert!(run.status.success(), "{stderr}");
+    }
 }
 
 #[test]

@@ -1,7 +1,8 @@
-//! Occlux's measurement lab: the benchmarks, the accuracy commands, the speed-against-accuracy
-//! chart and gallery, the planner's check and the launchers of the peers (Cycles, VTK, EEVEE)
-//! whose Python harness is `lab/python/occlux_lab`. The command line links it for its measuring
+//! Occlux's measurement lab: the GPU adapter's description, the benchmarks, the accuracy
+//! commands, the speed-against-accuracy chart and gallery, the planner's check and the launchers
+//! of the peers (Cycles, VTK, EEVEE) whose Python harness is `lab/python/occlux_lab`. The command line links it for its measuring
 //! subcommands; the library and the Python package never do.
+pub mod adapter;
 pub mod bench;
 pub mod chart;
 pub mod cycles;

@@ -3,10 +3,9 @@
 //! warm-up, on a crop of a CT to the 256 x 256 x 113. Prints a table with t(r) / t(4)
 //! and writes JSON.
 
-use super::bench::{devices, timed, Timing};
+use super::bench::{devices, timed, BenchDevices, Timing};
 use occlux::ao::vao::{ao_volume, Estimator, FieldKind, ScalarField, VaoParams};
 use occlux::error::{Error, Result};
-use occlux::gpu::DeviceChoice;
 use occlux::progress::NoProgress;
 use occlux::scene::{Scene, SourceKind};
 use occlux::volume::Volume;
@@ -33,7 +32,7 @@ pub struct VaoBenchArgs {
     #[arg(long, default_value_t = 7)]
     pub repeats: usize,
     #[arg(long, default_value = "auto")]
-    pub device: DeviceChoice,
+    pub device: BenchDevices,
     #[arg(short, long, default_value = "occlux-bench-ao.json")]
     pub out: PathBuf,
 }

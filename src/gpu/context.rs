@@ -75,6 +75,12 @@ impl GpuContext {
         })
     }
 
+    /// Whether the adapter is a software rasterizer (lavapipe/llvmpipe, WARP): the kernels then
+    /// run as CPU code, so its timings say nothing about a GPU.
+    pub fn is_software(&self) -> bool {
+        self.adapter_info.device_type == wgpu::DeviceType::Cpu
+    }
+
     /// "llvmpipe (LLVM 15, 256 bits), Vulkan".
     pub fn describe(&self) -> String {
         format!(
@@ -124,7 +130,7 @@ pub fn shared_context() -> Result<Arc<GpuContext>> {
 /// ray caster about the same).
 fn auto(opened: Result<Arc<GpuContext>>) -> (Compute, Option<String>) {
     match opened {
-        Ok(ctx) if ctx.adapter_info.device_type == wgpu::DeviceType::Cpu => (
+        Ok(ctx) if ctx.is_software() => (
             Compute::Cpu,
             Some(format!(
                 "the GPU adapter {} is a software rasterizer: using the CPU, which is faster \
@@ -227,9 +233,7 @@ mod tests {
     #[test]
     fn auto_prefers_the_cpu_twins_to_a_software_rasterizer() {
         let opened = shared_context();
-        let software = opened
-            .as_ref()
-            .is_ok_and(|c| c.adapter_info.device_type == wgpu::DeviceType::Cpu);
+        let software = opened.as_ref().is_ok_and(|c| c.is_software());
         let hardware = opened.is_ok() && !software;
         let (compute, notice) = auto(opened);
         if hardware {

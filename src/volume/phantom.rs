@@ -21,6 +21,9 @@ pub const PHANTOMS: &[&str] = &[
     "box-sphere",
 ];
 
+/// Smallest phantom side (a trilinear cell needs two voxels a side).
+pub const MIN_SIDE: usize = 2;
+
 /// Largest phantom side (2048^3 f32 would be 32 GiB).
 pub const MAX_SIDE: usize = 1024;
 
@@ -55,10 +58,10 @@ fn unknown(name: &str) -> Error {
 }
 
 fn cube(n: usize, f: impl Fn(Vec3) -> f32 + Sync) -> Result<Volume> {
-    if !(2..=MAX_SIDE).contains(&n) {
+    if !(MIN_SIDE..=MAX_SIDE).contains(&n) {
         return Err(Error::param(
             "volume.size",
-            format!("phantom side must be in 2..={MAX_SIDE}, got {n}"),
+            format!("phantom side must be in {MIN_SIDE}..={MAX_SIDE}, got {n}"),
         ));
     }
     let h = 2.0 / n as f32;
