@@ -16,9 +16,9 @@ bl_info = {
     "category": "Lighting",
 }
 
-from . import operators, panel, properties  # noqa: E402  (bl_info must come first)
+from . import operators, panel, properties, transfer  # noqa: E402  (bl_info first)
 
-_MODULES = (properties, operators, panel)
+_MODULES = (properties, transfer, operators, panel)
 
 
 def register() -> None:

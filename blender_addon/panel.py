@@ -4,9 +4,9 @@ from __future__ import annotations
 
 import bpy
 
-from . import material, scenes
+from . import material, scenes, transfer
 from .eevee import EEVEE_BEFORE
-from .operators.bake import outdated
+from .operators.bake import BAKED, outdated
 from .operators.jobs import unsaved_output
 
 
@@ -25,8 +25,8 @@ class VIEW3D_PT_occlux(bpy.types.Panel):
             column.prop(settings, "raw_dims")
             column.prop(settings, "raw_type")
             column.prop(settings, "raw_spacing")
-        column.prop(settings, "preset")
-        column.prop(settings, "density_scale")
+        draw_transfer(layout, context)
+        column = layout.column(align=True)
         column.prop(settings, "fit")
         column.prop(settings, "output_dir")
         elsewhere = unsaved_output(settings)
@@ -110,6 +110,58 @@ class VIEW3D_PT_occlux(bpy.types.Panel):
         if settings.status:
             layout.separator()
             layout.progress(factor=settings.progress, text=settings.status)
+
+
+def draw_transfer(layout: bpy.types.UILayout, context: bpy.types.Context) -> None:
+    """The transfer function: a preset, or the ramp on its window with the histogram of the
+    file's values the active Occlux volume keeps; Apply Classification, and why it is due."""
+    settings = context.scene.occlux
+    box = layout.box()
+    box.row().prop(settings, "transfer", expand=True)
+    column = box.column(align=True)
+    if settings.transfer == transfer.PRESET:
+        column.prop(settings, "preset")
+    else:
+        row = column.row(align=True)
+        row.prop(settings, "window_lo")
+        row.prop(settings, "window_hi")
+        row = column.row(align=True)
+        row.prop(settings, "use_window_cut")
+        row.prop(settings, "window_cut", text="")
+        column.prop(settings, "max_density")
+        column.operator("occlux.suggest_classification", icon="LIGHTPROBE_VOLUME")
+        node = transfer.ramp_node(settings)
+        if node is None:
+            column.label(text="No ramp: Suggest from File makes one", icon="INFO")
+        else:
+            box.template_color_ramp(node, "color_ramp", expand=True)
+    column = box.column(align=True)
+    column.prop(settings, "density_scale")
+    obj = scenes.volume_object(context)
+    icon = 0 if obj is None else transfer.histogram_icon(obj)
+    if icon:
+        histogram = transfer.kept_by(obj)["histogram"]
+        box.template_icon(icon_value=icon, scale=6.0)
+        box.label(text=f"{histogram['lo']:g} .. {histogram['hi']:g}, log counts")
+    box.operator("occlux.apply_classification", icon="FILE_REFRESH")
+    why = classification_due(context, obj)
+    if why:
+        box.label(text=why, icon="ERROR")
+
+
+def classification_due(context: bpy.types.Context, obj: bpy.types.Object | None) -> str:
+    """Why the active Occlux volume shows another classification than the panel's ("" when
+    it shows the panel's, keeps none, or is baked: Bake again says so then)."""
+    held = transfer.kept_by(obj)
+    if held is None or obj.get(BAKED) is not None:
+        return ""
+    try:
+        now = scenes.classification_section(context.scene.occlux)
+    except ValueError as e:
+        return f"Cannot apply: {e}"
+    if now != held["classification"]:
+        return "The volume shows another classification: Apply Classification"
+    return ""
 
 
 def register() -> None:

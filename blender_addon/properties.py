@@ -13,7 +13,7 @@ from bpy.props import (
     StringProperty,
 )
 
-from . import material, scenes
+from . import material, scenes, transfer
 
 # Limits, defaults and choices that the core's method registry (`occlux.methods()`) knows come
 # from it, read when the add-on is registered: the extension installs its `occlux` wheel before
@@ -76,6 +76,18 @@ def _registry_float(name: str, param: dict, precision: int):
 RAW_TYPES = ("uint8", "int8", "uint16", "int16", "uint32", "int32", "float32", "float64")
 
 
+def _update_transfer(settings: OccluxSettings, context: bpy.types.Context) -> None:
+    """Choosing Ramp makes the editable ramp if there is none yet, suggested on the active
+    Occlux volume's file when it keeps its robust window (as Load Volume leaves it)."""
+    if settings.transfer != transfer.RAMP or transfer.ramp_node(settings):
+        return
+    held = transfer.kept_by(scenes.volume_object(context))
+    if held is None:
+        transfer.ensure_ramp(settings)
+    else:
+        transfer.suggest(settings, held["robust"])
+
+
 def _update_ao_factor(settings: OccluxSettings, context: bpy.types.Context) -> None:
     """Moves the AO factor node of every Occlux material to the new value."""
     for shading in bpy.data.materials:
@@ -114,6 +126,54 @@ class OccluxSettings(bpy.types.PropertyGroup):
         size=3,
         min=1e-6,
         default=(1.0, 1.0, 1.0),
+    )
+    transfer: EnumProperty(
+        name="Transfer function",
+        description="How the file's values become extinction and albedo",
+        items=[
+            (transfer.PRESET, "Preset", "A built-in transfer function on the file's "
+             "robust window"),
+            (transfer.RAMP, "Ramp", "The ramp below on the window Low..High of the "
+             "file's values: RGB the albedo, alpha the extinction over Max density"),
+        ],
+        default=transfer.PRESET,
+        update=_update_transfer,
+    )  # fmt: skip
+    window_lo: FloatProperty(
+        name="Low",
+        description="The file's value at the ramp's left end (values below classify as it)",
+        default=0.0,
+        precision=4,
+    )
+    window_hi: FloatProperty(
+        name="High",
+        description="The file's value at the ramp's right end (values above classify as it)",
+        default=1.0,
+        precision=4,
+    )
+    use_window_cut: bpy.props.BoolProperty(
+        name="Cut",
+        description="Classify values above Cut as the ramp's left end: negative numbers "
+        "wrapped into an unsigned type (Suggest from File sets it when the file has them)",
+        default=False,
+    )
+    window_cut: FloatProperty(
+        name="Cut value",
+        description="Values above this classify as the ramp's left end",
+        default=0.0,
+        precision=4,
+    )
+    max_density: FloatProperty(
+        name="Max density",
+        description="Extinction per scene unit where the ramp's alpha is 1",
+        min=0.0,
+        soft_max=200.0,
+        default=20.0,
+    )
+    ramp: PointerProperty(
+        name="Ramp",
+        description="The node group holding the editable ramp",
+        type=bpy.types.NodeTree,
     )
     preset: EnumProperty(
         name="Preset",

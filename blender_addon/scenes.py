@@ -15,6 +15,7 @@ from typing import Any
 import bpy
 import occlux
 
+from . import transfer
 from .material import world_shader
 
 # The add-on maps the world to an ambient light, sun lamps to directional lights and point lamps
@@ -143,7 +144,8 @@ def panel_dataset(context: bpy.types.Context) -> tuple[VolumeInput, bpy.types.Ob
 
 
 def classification_section(settings) -> dict[str, Any]:
-    return {"preset": settings.preset, "density_scale": float(settings.density_scale)}
+    """The scene's `classification`: the panel's preset or ramp (`transfer.section`)."""
+    return transfer.section(settings)
 
 
 def camera_section(scene: bpy.types.Scene, width: int, height: int) -> dict[str, Any]:

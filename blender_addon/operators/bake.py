@@ -66,7 +66,10 @@ def outdated(context: bpy.types.Context, obj: bpy.types.Object | None) -> str:
     if obj is None or BAKED not in obj:
         return ""
     before = json.loads(obj[BAKED])
-    now = fingerprint(context, baked_lamps(context.scene))
+    try:
+        now = fingerprint(context, baked_lamps(context.scene))
+    except ValueError as e:  # the panel's classification cannot be applied as it stands
+        return f"the classification changed, and cannot be applied: {e}"
     if now["source"] != before["source"] or now["classification"] != before["classification"]:
         return "the volume or its classification changed"
     if now["scattering"] != before.get("scattering"):
@@ -168,7 +171,7 @@ class OCCLUX_OT_bake_light(OccluxJob, bpy.types.Operator):
         grids = (*PLAIN, "ao")
         for lamp in result.lamps:
             grids += (lamp.grid,) + (lamp.multiple or ())
-        shown = dataset_shown(loaded, grids)
+        shown = dataset_shown(loaded, grids, result.fingerprint["classification"])
         target = bpy.data.objects.get(self._target)
 
         def shading(name: str) -> bpy.types.Material:

@@ -17,7 +17,7 @@ import bpy
 import numpy as np
 import occlux
 
-from .. import eevee, material, scenes
+from .. import eevee, material, scenes, transfer
 from .jobs import JobProgress, OccluxJob, output_dir
 
 
@@ -111,11 +111,12 @@ class OCCLUX_OT_import_volume(OccluxJob, bpy.types.Operator):
     def prepare(self, context: bpy.types.Context) -> Callable[[JobProgress], Loaded]:
         settings = context.scene.occlux
         source = scenes.VolumeInput.from_settings(settings)
+        self._classified = scenes.classification_section(settings)
         scene = scenes.build(scenes.volume_tree(source, settings))
         return load_work(scene, source, named_vdb(settings, source, "", {}))
 
     def finish(self, context: bpy.types.Context, result: Loaded) -> str:
-        obj = show_volume(context, result, PLAIN, None, None)
+        obj = show_volume(context, result, PLAIN, None, None, self._classified)
         told = unclamped(context)
         return f"loaded {result.source.path.name} as '{obj.name}' ({result.vdb}){told}"
 
@@ -171,6 +172,7 @@ class OCCLUX_OT_compute_ao(OccluxJob, bpy.types.Operator):
     def prepare(self, context: bpy.types.Context) -> Callable[[JobProgress], Loaded]:
         settings = context.scene.occlux
         source, target = scenes.panel_dataset(context)
+        self._classified = scenes.classification_section(settings)
         active = scenes.volume_object(context)
         # By name: the object may go while the work runs (then the file's object is found).
         self._target = None if target is None else target.name
@@ -201,7 +203,7 @@ class OCCLUX_OT_compute_ao(OccluxJob, bpy.types.Operator):
         target = bpy.data.objects.get(self._target) if self._target else None
         shading = material.ao_shading(settings.ao_shading)
         grids = PLAIN if shading is None else (*PLAIN, "ao")
-        obj = show_volume(context, result, grids, shading, target)
+        obj = show_volume(context, result, grids, shading, target, self._classified)
         source = result.source.path.name
         if shading is None:
             said = f"AO off: '{obj.name}' shows {source} unshaded, the world lighting every ray"
@@ -243,6 +245,8 @@ class Shown:
     owned: bool
     box: tuple[material.Rgb, material.Rgb]
     sequence: FrameSequence | None = None
+    # What a dataset's object keeps of its classification and values (`transfer.kept`).
+    kept: str | None = None
 
 
 # The grids of Load Volume's VDB, which every VDB of a dataset holds.
@@ -255,14 +259,17 @@ def show_volume(
     grids: tuple[str, ...],
     ao: str | None,
     target: bpy.types.Object | None,
+    classified: dict[str, Any],
 ) -> bpy.types.Object:
-    """The dataset's Volume object (`show`) for a VDB a job wrote, holding `grids`."""
-    return show(context, dataset_shown(loaded, grids), ao, target)
+    """The dataset's Volume object (`show`) for a VDB a job wrote, holding `grids`, classified
+    by the scene's `classified` classification."""
+    return show(context, dataset_shown(loaded, grids, classified), ao, target)
 
 
-def dataset_shown(loaded: Loaded, grids: tuple[str, ...]) -> Shown:
+def dataset_shown(loaded: Loaded, grids: tuple[str, ...], classified: dict[str, Any]) -> Shown:
     """What the dataset's object shows of a VDB a job wrote (the add-on's own file) holding
-    `grids`."""
+    `grids`, classified by the scene's `classified` classification (which the object keeps,
+    with the file's robust window and histogram: `transfer.kept`)."""
     return Shown(
         name=loaded.source.stem,
         vdb=loaded.vdb,
@@ -272,6 +279,7 @@ def dataset_shown(loaded: Loaded, grids: tuple[str, ...]) -> Shown:
         mark=SOURCE,
         setting=loaded.source.setting,
         owned=True,
+        kept=transfer.kept(loaded.volume, classified),
     )
 
 
@@ -333,6 +341,8 @@ def show(
         release(previous)
         made.name = f"Occlux {name}"  # the released material's name, free again
     obj[shown.mark] = shown.setting
+    if shown.kept is not None:
+        obj[transfer.CLASSIFIED] = shown.kept
     # A material of AMBIENT shading carries the world's light, so the world lights only camera
     # rays while one shows; otherwise (e.g. shading switched to ALBEDO) it lights every ray.
     if any(material.carries_ambient(o.active_material) for o in context.scene.objects):

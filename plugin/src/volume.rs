@@ -3,9 +3,12 @@
 use crate::arrays::{readonly_view, volume_values};
 use crate::py_err;
 use glam::Vec3;
-use numpy::PyArray3;
+use numpy::{PyArray1, PyArray3};
+use occlux::classify::{histogram, Window};
+use occlux::volume::info::suggested_points;
 use occlux::volume::{self, phantom, LoadOptions, Volume};
 use pyo3::prelude::*;
+use pyo3::types::PyDict;
 use std::path::PathBuf;
 
 /// A dense scalar volume in world units: voxel (i, j, k) is `values[k, j, i]` and has its centre
@@ -113,6 +116,54 @@ impl PyVolume {
         let owner = this.clone().into_any();
         // SAFETY: the values belong to this frozen Volume, which never changes them.
         unsafe { readonly_view(owner, this.get().inner.values(), (nz, ny, nx)) }
+    }
+
+    /// The robust window of the values, on which normalised transfer functions (the presets)
+    /// read 0 and 1, as `occlux info` prints it: a dict with `lo` and `hi`, `cut` (the value
+    /// above which wrapped negative numbers are classified as `lo`; None when there are none),
+    /// `background` (the centre of the most common value band) and the shares of the sampled
+    /// voxels `above` the window's top and `wrapped` (cut away); `points`, the ramp `occlux info
+    /// --suggest` suggests on it, as `(value, sigma_t, albedo, emission)` in the file's values.
+    fn robust_window<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let report = py.detach(|| Window::robust(&self.inner));
+        let window = PyDict::new(py);
+        window.set_item("lo", report.window.lo)?;
+        window.set_item("hi", report.window.hi)?;
+        window.set_item("cut", report.window.cut)?;
+        window.set_item("background", report.background)?;
+        window.set_item("above", report.above)?;
+        window.set_item("wrapped", report.wrapped)?;
+        let points: Vec<_> = suggested_points(&report)
+            .into_iter()
+            .map(|p| (p.value, p.sigma_t, p.albedo, p.emission))
+            .collect();
+        window.set_item("points", points)?;
+        Ok(window)
+    }
+
+    /// Voxels in `bins` equal bins over [lo, hi] (uint64), binned as numpy's
+    /// `histogram(values, bins, range=(lo, hi))` bins them in float64; values outside are not
+    /// counted. Counted in parallel over the volume's own memory (no copy). Raises OccluxError
+    /// naming `histogram.bins` (1 to 65536) or `histogram.range` (finite lo < hi).
+    #[pyo3(signature = (lo, hi, bins = 64))]
+    fn histogram<'py>(
+        &self,
+        py: Python<'py>,
+        lo: f32,
+        hi: f32,
+        bins: i64,
+    ) -> PyResult<Bound<'py, PyArray1<u64>>> {
+        // A negative count would fail pyo3's unsigned conversion without naming the argument.
+        let bins = usize::try_from(bins).map_err(|_| {
+            py_err(occlux::Error::param(
+                "histogram.bins",
+                format!("must be positive, got {bins}"),
+            ))
+        })?;
+        let counts = py
+            .detach(|| histogram(self.inner.values(), lo, hi, bins))
+            .map_err(py_err)?;
+        Ok(PyArray1::from_vec(py, counts))
     }
 
     fn __repr__(&self) -> String {

@@ -15,7 +15,7 @@ pub mod window;
 pub use lut::{Lut, Optical, LUT_STRIDE};
 pub use tf1d::{ControlPoint, TransferFunction1D};
 pub use tf2d::{TransferFunction2D, Widget, WidgetShape};
-pub use window::{ValueRange, Window, WindowReport};
+pub use window::{histogram, ValueRange, Window, WindowReport, MAX_HISTOGRAM_BINS};
 
 use crate::error::{Error, Result};
 use crate::volume::Volume;

@@ -223,6 +223,68 @@ impl fmt::Display for WindowReport {
     }
 }
 
+/// Most bins [`histogram`] counts into.
+pub const MAX_HISTOGRAM_BINS: usize = 1 << 16;
+
+/// Counts of `values` in `bins` equal bins over [`lo`, `hi`] (a window on them, for a panel
+/// to draw), binned as numpy's `histogram(values, bins, range=(lo, hi))` bins in f64: bin i
+/// holds edge(i) <= v < edge(i + 1), edge(i) = lo + i (hi - lo) / bins, the last bin also
+/// holds `hi`, and values outside [lo, hi] are not counted. Counted in parallel over the
+/// values as they lie (no copy). Errors name `histogram.bins` (in 1..=[`MAX_HISTOGRAM_BINS`])
+/// and `histogram.range` (finite lo < hi).
+pub fn histogram(values: &[f32], lo: f32, hi: f32, bins: usize) -> crate::error::Result<Vec<u64>> {
+    if !(1..=MAX_HISTOGRAM_BINS).contains(&bins) {
+        return Err(crate::error::Error::param(
+            "histogram.bins",
+            format!("must be in 1..={MAX_HISTOGRAM_BINS}, got {bins}"),
+        ));
+    }
+    if !(lo.is_finite() && hi.is_finite() && lo < hi) {
+        return Err(crate::error::Error::param(
+            "histogram.range",
+            format!("must be finite lo < hi, got [{lo}, {hi}]"),
+        ));
+    }
+    // In f64, as numpy's linspace places the edges: a window may span more than an f32 holds.
+    let (lo, hi) = (lo as f64, hi as f64);
+    let step = (hi - lo) / bins as f64;
+    let edge = |i: usize| if i == bins { hi } else { i as f64 * step + lo };
+    let bin = |v: f64| {
+        // The index from the value's position, then moved by one where rounding put it
+        // across an edge, so that the edges decide, as in numpy.
+        let mut i = (((v - lo) / (hi - lo)) * bins as f64) as usize;
+        i = i.min(bins - 1);
+        if v < edge(i) {
+            i -= 1;
+        } else if i + 1 < bins && v >= edge(i + 1) {
+            i += 1;
+        }
+        i
+    };
+    let counts = values
+        .par_chunks(1 << 16)
+        .fold(
+            || vec![0u64; bins],
+            |mut counts, chunk| {
+                for &v in chunk {
+                    let v = v as f64;
+                    if (lo..=hi).contains(&v) {
+                        counts[bin(v)] += 1;
+                    }
+                }
+                counts
+            },
+        )
+        .reduce(
+            || vec![0u64; bins],
+            |mut a, b| {
+                a.iter_mut().zip(b).for_each(|(x, y)| *x += y);
+                a
+            },
+        );
+    Ok(counts)
+}
+
 /// At most [`SAMPLE`] values at a fixed stride; the stride is odd so that it does not follow
 /// one axis of a power-of-two grid.
 fn sample(values: &[f32]) -> Vec<f32> {
@@ -417,6 +479,41 @@ mod tests {
         let slab: Vec<f32> = (0..1000).map(|i| (i % 4 == 0) as u8 as f32).collect();
         let w = Window::robust(&volume(slab)).window;
         assert_eq!((w.lo, w.hi, w.cut), (0.0, 1.0, None));
+    }
+
+    #[test]
+    fn the_histogram_counts_values_in_the_window_with_numpys_edges() {
+        // 0..=9 once each over [0, 10) in 5 bins: two values a bin; outside values uncounted,
+        // the window's top in the last bin.
+        let values: Vec<f32> = (0..10).map(|v| v as f32).chain([-1.0, 10.5]).collect();
+        assert_eq!(histogram(&values, 0.0, 10.0, 5).unwrap(), vec![2; 5]);
+        assert_eq!(
+            histogram(&[10.0], 0.0, 10.0, 5).unwrap(),
+            vec![0, 0, 0, 0, 1]
+        );
+        // Tenths in f32 over [0, 1] in 10 bins: the edges decide. 0.7f32 (0.69999999) lies
+        // below the edge 7 x 0.1 + 0 = 0.70000000000000007 and 0.9f32 (0.89999998) below
+        // 0.9, so each falls into the bin before its own, as numpy bins them.
+        let tenths: Vec<f32> = (0..=10).map(|i| i as f32 / 10.0).collect();
+        let counts = histogram(&tenths, 0.0, 1.0, 10).unwrap();
+        assert_eq!(counts, vec![1, 1, 1, 1, 1, 1, 2, 0, 2, 1]);
+        // More values than one parallel chunk, all in the middle bin.
+        let many = vec![0.5f32; 200_000];
+        assert_eq!(histogram(&many, 0.0, 1.0, 3).unwrap(), vec![0, 200_000, 0]);
+        // Bad bins and ranges are refused by name.
+        let bins = histogram(&values, 0.0, 1.0, 0).unwrap_err().to_string();
+        assert!(bins.contains("histogram.bins"), "{bins}");
+        let over = histogram(&values, 0.0, 1.0, MAX_HISTOGRAM_BINS + 1).unwrap_err();
+        assert!(over.to_string().contains("histogram.bins"), "{over}");
+        for (lo, hi) in [
+            (1.0, 1.0),
+            (2.0, 1.0),
+            (f32::NAN, 1.0),
+            (0.0, f32::INFINITY),
+        ] {
+            let range = histogram(&values, lo, hi, 4).unwrap_err().to_string();
+            assert!(range.contains("histogram.range"), "{range}");
+        }
     }
 
     #[test]

@@ -8,7 +8,7 @@
 
 use super::loaders::NonFiniteVoxels;
 use super::{frame_count, load_with_info, LoadOptions, NonFinite, Volume};
-use crate::classify::{Window, WindowReport};
+use crate::classify::{ControlPoint, Window, WindowReport};
 use crate::error::Result;
 use std::fmt::Write;
 use std::path::Path;
@@ -248,26 +248,49 @@ pub fn describe(file: &Path, options: &LoadOptions, suggest: bool) -> Result<Str
     Ok(out)
 }
 
-/// A `[classification]` a user can paste: clear up to the background band's top, a
-/// translucent middle and dense at the window's top, in the volume's own values.
-fn suggestion(report: &WindowReport) -> String {
+/// The ramp `occlux info --suggest` suggests for a robust window, in the volume's own values:
+/// clear up to the background band's top, a translucent middle and dense at the window's top
+/// (sigma_t per world unit, for a volume 2 units across). Above a window's cut the suggestion
+/// steps back to clear, as the window classifies it.
+pub fn suggested_points(report: &WindowReport) -> [ControlPoint; 3] {
     let w = report.window;
     // In f64, as the statistics: a window may span more than an f32 holds.
     let (lo, hi) = (w.lo as f64, w.hi as f64);
     let clear = ((report.background as f64).max(lo) + 0.15 * (hi - lo)).min(lo + 0.6 * (hi - lo));
     let (clear, middle) = (clear as f32, (0.5 * (clear + hi)) as f32);
+    [
+        ControlPoint::new(clear, 0.0, [0.85, 0.8, 0.75], [0.0; 3]),
+        ControlPoint::new(middle, 3.0, [0.9, 0.85, 0.8], [0.0; 3]),
+        ControlPoint::new(w.hi, 20.0, [0.95, 0.93, 0.9], [0.0; 3]),
+    ]
+}
+
+/// A `[classification]` a user can paste: [`suggested_points`], and the step back to clear
+/// above a cut.
+fn suggestion(report: &WindowReport) -> String {
+    let w = report.window;
+    let points = suggested_points(report);
     let mut text = format!(
         "# paste into a scene: a ramp on this file's values (robust window {w})\n\
-         [classification]\nunits = \"raw\"\npoints = [\n\
-         \x20 {{ value = {clear}, sigma_t = 0, albedo = [0.85, 0.8, 0.75] }},\n\
-         \x20 {{ value = {middle}, sigma_t = 3, albedo = [0.9, 0.85, 0.8] }},\n\
-         \x20 {{ value = {}, sigma_t = 20, albedo = [0.95, 0.93, 0.9] }},\n",
-        w.hi
+         [classification]\nunits = \"raw\"\npoints = [\n"
     );
+    let point = |p: &ControlPoint| {
+        format!(
+            "{{ value = {}, sigma_t = {}, albedo = {:?} }}",
+            p.value, p.sigma_t, p.albedo
+        )
+    };
+    for p in &points {
+        text += &format!("\x20 {},\n", point(p));
+    }
     if let Some(cut) = w.cut {
+        let top = ControlPoint {
+            value: cut,
+            ..points[2].clone()
+        };
         text += &format!(
-            "\x20 {{ value = {cut}, sigma_t = 20, albedo = [0.95, 0.93, 0.9] }},  # wrapped values above\n\
-             \x20 {{ value = {}, sigma_t = 0 }},\n",
+            "\x20 {},  # wrapped values above\n\x20 {{ value = {}, sigma_t = 0 }},\n",
+            point(&top),
             crate::classify::above(cut)
         );
     }
@@ -330,6 +353,34 @@ mod tests {
         assert!(Statistics::of(&volume, 0).is_some());
         let bad = Volume::new([2, 1, 1], Vec3::ONE, Vec3::ZERO, vec![0.0, 0.0]).unwrap();
         assert_eq!(Statistics::of(&bad, 2), None);
+    }
+
+    #[test]
+    fn the_suggestion_pastes_the_suggested_points_and_a_cuts_step() {
+        let report = WindowReport {
+            window: Window {
+                lo: 0.0,
+                hi: 100.0,
+                cut: Some(200.0),
+            },
+            background: 2.0,
+            above: 0.0,
+            wrapped: 0.1,
+        };
+        let values: Vec<f32> = suggested_points(&report).iter().map(|p| p.value).collect();
+        // Clear at the background plus 15 % of the window, the middle halfway to the top.
+        assert_eq!(values, vec![17.0, 58.5, 100.0]);
+        let text = suggestion(&report);
+        assert!(
+            text.contains(
+                "  { value = 17, sigma_t = 0, albedo = [0.85, 0.8, 0.75] },\n  \
+                 { value = 58.5, sigma_t = 3, albedo = [0.9, 0.85, 0.8] },\n  \
+                 { value = 100, sigma_t = 20, albedo = [0.95, 0.93, 0.9] },\n  \
+                 { value = 200, sigma_t = 20, albedo = [0.95, 0.93, 0.9] },  # wrapped values above\n  \
+                 { value = 200.00002, sigma_t = 0 },\n]"
+            ),
+            "{text}"
+        );
     }
 
     #[test]

@@ -111,7 +111,8 @@ def test_the_extension_installs_registers_and_reloads(extension: Path, tmp_path:
         tmp_path,
         """
         ops = ("import_volume", "compute_ao", "bake_light", "restore_eevee", "render_dos",
-               "render_ipsvi", "check_cycles", "composite", "import_stage", "import_series")
+               "render_ipsvi", "check_cycles", "composite", "import_stage", "import_series",
+               "suggest_classification", "apply_classification")
         result["registered"] = [hasattr(bpy.ops.occlux, op) for op in ops]
         result["panel"] = hasattr(bpy.types, "VIEW3D_PT_occlux")
         result["settings"] = hasattr(bpy.types.Scene, "occlux")
@@ -142,9 +143,15 @@ def test_the_extension_installs_registers_and_reloads(extension: Path, tmp_path:
         result["unknown_ops"] = [
             o for o in drawn["ops"] if not hasattr(bpy.ops.occlux, o.split(".")[1])]
         result["drawn"] = len(drawn["props"]), sorted(drawn["ops"])
+        # The transfer function's Ramp: its window, Max density and Suggest from File too.
+        drawn["props"], drawn["ops"] = [], []
+        s.transfer = "RAMP"
+        bpy.types.VIEW3D_PT_occlux.draw(SimpleNamespace(layout=Layout()), bpy.context)
+        result["unknown_props"] += [p for p in drawn["props"] if p not in known]
+        result["ramp_drawn"] = drawn["props"], drawn["ops"]
         """,
     )
-    assert result["registered"] == [True] * 10 and result["panel"] and result["settings"]
+    assert result["registered"] == [True] * 12 and result["panel"] and result["settings"]
     assert result["after_disable"] is False and result["after_reload"] is True
     assert result["unknown_props"] == [] and result["unknown_ops"] == [], result
     assert result["drawn"][0] > 20 and result["drawn"][1] == sorted(
@@ -154,8 +161,12 @@ def test_the_extension_installs_registers_and_reloads(extension: Path, tmp_path:
             "check_cycles", "composite",
             "import_stage",
             "import_series",
+            "apply_classification",
         )
     ), result["drawn"]  # fmt: skip
+    ramp_props, ramp_ops = result["ramp_drawn"]
+    assert {"window_lo", "window_hi", "window_cut", "max_density"} <= set(ramp_props)
+    assert "preset" not in ramp_props and "occlux.suggest_classification" in ramp_ops
     # The occlux package came from the wheel inside the extension, not from this checkout.
     assert str(tmp_path) in result["occlux_from"], result["occlux_from"]
 

@@ -579,3 +579,28 @@ def test_an_auto_scene_renders_the_planners_choice_and_says_so(tmp_path: Path, o
     assert header_method == plan["method"]
     # A scene with a fixed method has no plan.
     assert occlux.render(occlux.Scene.from_toml(scene_text(size=(8, 8))), device="cpu").plan is None
+
+
+def test_volume_histogram_bins_as_numpy_and_the_robust_window_is_the_cores() -> None:
+    """The bindings without Blender: `Volume.histogram` bins as numpy does (values on the
+    edges included), `Volume.robust_window` gives the window with the ramp `occlux info
+    --suggest` suggests on it (ending at the window's top), and bad bins or ranges are refused
+    by name."""
+    rng = np.random.default_rng(7)
+    values = np.concatenate([rng.normal(100.0, 30.0, 30_000), np.arange(0, 256, 0.25)])
+    values = values.astype(np.float32).reshape(2, 1, -1)
+    volume = occlux.Volume(values)
+    for lo, hi, bins in ((0.0, 255.0, 64), (40.0, 160.0, 7), (-3.5, 300.25, 1000)):
+        want, _ = np.histogram(values.astype(np.float64), bins=bins, range=(lo, hi))
+        got = volume.histogram(lo, hi, bins)
+        assert got.dtype == np.uint64
+        np.testing.assert_array_equal(got, want)
+    robust = volume.robust_window()
+    assert robust["lo"] < robust["hi"] and robust["cut"] is None
+    assert robust["points"][-1][0] == robust["hi"] and len(robust["points"]) == 3
+    for bins in (0, -2, 70_000):
+        with pytest.raises(occlux.OccluxError, match=r"histogram\.bins"):
+            volume.histogram(0.0, 1.0, bins)
+    for lo, hi in ((1.0, 1.0), (2.0, 1.0), (float("nan"), 1.0), (0.0, float("inf"))):
+        with pytest.raises(occlux.OccluxError, match=r"histogram\.range"):
+            volume.histogram(lo, hi)

@@ -75,6 +75,22 @@ class Volume:
         """Read-only float32 array of shape ``(nz, ny, nx)`` viewing the volume's memory (no
         copy; the array keeps the volume alive)."""
 
+    def robust_window(self) -> dict[str, Any]:
+        """The robust window of the values, on which normalised transfer functions (the presets)
+        read 0 and 1, as ``occlux info`` prints it: ``lo`` and ``hi``, ``cut`` (the value above
+        which wrapped negative numbers are classified as ``lo``; None when there are none),
+        ``background`` (the centre of the most common value band) and the shares of the sampled
+        voxels ``above`` the window's top and ``wrapped`` (cut away); ``points``, the ramp
+        ``occlux info --suggest`` suggests on it, as ``(value, sigma_t, albedo, emission)`` in the
+        file's values."""
+
+    def histogram(self, lo: float, hi: float, bins: int = 64) -> npt.NDArray[np.uint64]:
+        """Voxels in ``bins`` equal bins over ``[lo, hi]``, binned as
+        ``numpy.histogram(values, bins, range=(lo, hi))`` bins them in float64; values outside
+        are not counted. Counted in parallel over the volume's own memory (no copy). Raises
+        OccluxError naming ``histogram.bins`` (1 to 65536) or ``histogram.range`` (finite
+        lo < hi)."""
+
 class Classification:
     """Maps the value (and, for 2D presets, the gradient magnitude) to extinction sigma_t per
     world unit, an RGB single-scattering albedo and an RGB emission. Immutable."""

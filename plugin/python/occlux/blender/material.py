@@ -32,7 +32,13 @@ def color_ramp(tree, stops: Sequence[tuple[float, Sequence[float]]]):
     """A Color Ramp node with LINEAR interpolation through (position, RGBA) stops, positions
     ascending (the add-on's volume material builds its ramps with it too)."""
     node = tree.nodes.new("ShaderNodeValToRGB")
-    ramp = node.color_ramp
+    fill_ramp(node.color_ramp, stops)
+    return node
+
+
+def fill_ramp(ramp, stops: Sequence[tuple[float, Sequence[float]]]) -> None:
+    """Makes a Color Ramp's elements the (position, RGBA) stops, positions ascending, with
+    LINEAR interpolation in RGB (the add-on's editable transfer function starts so too)."""
     ramp.interpolation = "LINEAR"
     ramp.color_mode = "RGB"
     while len(ramp.elements) > 1:
@@ -43,7 +49,6 @@ def color_ramp(tree, stops: Sequence[tuple[float, Sequence[float]]]):
     # Elements are kept sorted by position, as the stops are.
     for element, (_, rgba) in zip(ramp.elements, stops, strict=True):
         element.color = rgba
-    return node
 
 
 def _ramp_positions(points: Sequence[TfPoint]) -> list[float]:
