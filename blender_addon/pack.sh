@@ -10,4 +10,5 @@ cd "$(dirname "$0")/.."
 command -v cargo >/dev/null || { echo "pack.sh needs Rust: https://rustup.rs" >&2; exit 1; }
 [ -x .pack-venv/bin/python ] || python3 -m venv .pack-venv
 .pack-venv/bin/pip install -q --disable-pip-version-check "maturin[zig]==1.16.0"
-.pack-venv/bin/python blender_addon/build.py "$@"
+# maturin finds zig through the Python on PATH (python -m ziglang): the venv's.
+PATH="$PWD/.pack-venv/bin:$PATH" .pack-venv/bin/python blender_addon/build.py "$@"

@@ -28,6 +28,7 @@ class VIEW3D_PT_occlux(bpy.types.Panel):
         draw_transfer(layout, context)
         column = layout.column(align=True)
         column.prop(settings, "fit")
+        column.prop(settings, "frame_camera")
         column.prop(settings, "output_dir")
         elsewhere = unsaved_output(settings)
         if elsewhere:

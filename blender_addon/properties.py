@@ -194,6 +194,13 @@ class OccluxSettings(bpy.types.PropertyGroup):
         min=1e-4,
         default=2.0,
     )
+    frame_camera: bpy.props.BoolProperty(
+        name="Frame camera",
+        description="Load Volume moves the scene camera along its own view direction so that "
+        "the classified volume's visible content fills the frame (5 % margin), as `occlux "
+        'render` frames a camera with frame = "content"',
+        default=False,
+    )
     output_dir: StringProperty(
         name="Output",
         description="Folder for Occlux's files (// is the .blend file's folder)",

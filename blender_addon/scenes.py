@@ -14,6 +14,7 @@ from typing import Any
 
 import bpy
 import occlux
+from mathutils import Matrix, Vector
 
 from . import transfer
 from .material import world_shader
@@ -308,16 +309,40 @@ def volume_tree(source: VolumeInput, settings) -> dict[str, Any]:
     }
 
 
+def framed_camera(scene: bpy.types.Scene) -> dict[str, Any]:
+    """The scene camera's section at the render's size, asking the core to frame the visible
+    content from the camera's direction (`frame = "content"`, its default margin) when the
+    volume is settled."""
+    render = scene.render
+    percent = render.resolution_percentage / 100.0
+    width, height = round(render.resolution_x * percent), round(render.resolution_y * percent)
+    return {**camera_section(scene, width, height), "frame": "content"}
+
+
+def place_camera(camera: bpy.types.Object, described: dict[str, Any]) -> None:
+    """Moves and turns `camera` to the core's camera `described` (`Scene.describe()`'s):
+    its eye at `position`, looking along `forward` with `up` up (Blender's camera looks down
+    its local -Z with +Y up); its lens stays."""
+    forward = Vector(described["forward"]).normalized()
+    up = Vector(described["up"]).normalized()
+    right = forward.cross(up).normalized()
+    up = right.cross(forward)
+    rotation = Matrix((right, up, -forward)).transposed()
+    camera.matrix_world = Matrix.Translation(described["position"]) @ rotation.to_4x4()
+
+
 def build(tree: dict[str, Any]) -> occlux.Scene:
     """The core's scene for `tree`, validated as a scene file is (errors name the key)."""
     return occlux.Scene.from_dict(tree)
 
 
-def load_volume(scene: occlux.Scene, source: VolumeInput) -> occlux.Volume:
-    """The scene's volume through the core's loaders (raw layout, budget, fit and centre). The
-    core states the budget in GiB or MiB; a refusal also names the panel's setting, in its MB."""
+def load_volume(scene: occlux.Scene, source: VolumeInput, settle: bool = False) -> occlux.Volume:
+    """The scene's volume through the core's loaders (raw layout, budget, fit and centre); with
+    `settle`, also what depends on the data settled in `scene` as `occlux render` settles it
+    (its camera framed when the tree asks, `framed_camera`). The core states the budget in GiB
+    or MiB; a refusal also names the panel's setting, in its MB."""
     try:
-        return scene.load_volume()
+        return scene.settle()[0] if settle else scene.load_volume()
     except occlux.OccluxError as e:
         if "memory budget" not in str(e):
             raise

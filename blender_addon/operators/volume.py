@@ -29,6 +29,8 @@ class Loaded:
     source: scenes.VolumeInput
     classification: Any
     volume: Any
+    # The core's camera framing the visible content (`Scene.describe()`'s), when asked.
+    camera: dict | None = None
 
 
 def named_vdb(settings, source: scenes.VolumeInput, kind: str, depends: dict) -> Path:
@@ -80,16 +82,19 @@ def write_grids(vdb: Path, grids: dict[str, occlux.Volume]) -> None:
 
 
 def load_work(
-    scene: occlux.Scene, source: scenes.VolumeInput, vdb: Path
+    scene: occlux.Scene, source: scenes.VolumeInput, vdb: Path, frame: bool = False
 ) -> Callable[[JobProgress], Loaded]:
-    """Load Volume's work: the volume classified, its `density` and `value` grids in `vdb`."""
+    """Load Volume's work: the volume classified, its `density` and `value` grids in `vdb`;
+    with `frame` (the scene's camera asks for it, `scenes.framed_camera`), the camera framing
+    its visible content."""
 
     def work(progress: JobProgress) -> Loaded:
-        volume = scenes.load_volume(scene, source)
+        volume = scenes.load_volume(scene, source, settle=frame)
         classification = scene.classification
         density = classification.extinction(volume)
         write_grids(vdb, {"density": density, "value": volume})
-        return Loaded(vdb, source, classification, volume)
+        camera = scene.describe()["camera"] if frame else None
+        return Loaded(vdb, source, classification, volume, camera)
 
     return work
 
@@ -112,12 +117,19 @@ class OCCLUX_OT_import_volume(OccluxJob, bpy.types.Operator):
         settings = context.scene.occlux
         source = scenes.VolumeInput.from_settings(settings)
         self._classified = scenes.classification_section(settings)
-        scene = scenes.build(scenes.volume_tree(source, settings))
-        return load_work(scene, source, named_vdb(settings, source, "", {}))
+        tree = scenes.volume_tree(source, settings)
+        if settings.frame_camera:
+            tree["camera"] = scenes.framed_camera(context.scene)
+        scene = scenes.build(tree)
+        vdb = named_vdb(settings, source, "", {})
+        return load_work(scene, source, vdb, frame=settings.frame_camera)
 
     def finish(self, context: bpy.types.Context, result: Loaded) -> str:
         obj = show_volume(context, result, PLAIN, None, None, self._classified)
         told = unclamped(context)
+        if result.camera is not None and context.scene.camera is not None:
+            scenes.place_camera(context.scene.camera, result.camera)
+            told += f"; framed camera '{context.scene.camera.name}' on the visible content"
         return f"loaded {result.source.path.name} as '{obj.name}' ({result.vdb}){told}"
 
 
