@@ -402,9 +402,12 @@ def test_bake_holds_the_visibility_and_each_light_and_reads_back_in_openvdb(
     scene = occlux.Scene.from_toml(scene_text())
     volume = scene.load_volume()
     baked = occlux.bake(scene, directions=16, g=0.3, device="cpu")
-    # The ambient light takes no grid of its own; the sun is light 0.
+    # Ambient light is the visibility and its multiple scattering; the sun is light 0.
     assert list(baked) == [
         "ao",
+        "ao_multiple_r",
+        "ao_multiple_g",
+        "ao_multiple_b",
         "light0",
         "light0_multiple_r",
         "light0_multiple_g",
@@ -416,8 +419,9 @@ def test_bake_holds_the_visibility_and_each_light_and_reads_back_in_openvdb(
     assert reaching.shape == volume.values.shape
     # Per unit irradiance: 1 where nothing lies between a voxel and the sun, less behind matter.
     assert 0.0 < reaching.min() < 0.5 and reaching.max() == pytest.approx(1.0, abs=1e-6)
-    multiple = baked["light0_multiple_r"].values
-    assert multiple.min() >= 0.0 and multiple.max() > 0.0
+    for name in ("light0_multiple_r", "ao_multiple_g"):
+        multiple = baked[name].values
+        assert np.isfinite(multiple).all() and multiple.min() >= 0.0 and multiple.max() > 0.0
     path = tmp_path / "bake.vdb"
     occlux.write_vdb(path, baked)
     grids = {grid.name: grid for grid in openvdb.readAll(str(path))[0]}
