@@ -37,7 +37,8 @@ ENGINES = {"EEVEE": "BLENDER_EEVEE", "CYCLES": "CYCLES"}
 class BakedCheck:
     """What the main-thread part needs: the baked object's name, the plain material's control
     points and box (from the volume the job loaded), the bake's phase asymmetry and whether it
-    holds multiple scattering, and the check's image size."""
+    holds multiple scattering, the check's image size and the grey the background shows (which
+    pixels are the volume's, `occlux.image_error`)."""
 
     stem: str
     volume_object: str
