@@ -283,7 +283,7 @@ class OCCLUX_OT_check_cycles(OccluxJob, bpy.types.Operator):
             "engine_seconds": seconds,
             "background": check.background,
             "truth": {
-                "bounces": check_baked.MULTIPLE_BOUNCES if check.multiple else 0,
+                "bounces": check.bounces,
                 "g": check.g,
             },
             "cycles_scene": built.holds,

@@ -4,10 +4,11 @@ Cycles at a few samples) against Cycles' path-traced truth of the same scene wit
 
 The truth renders the volume with its plain material (Load Volume's classification, no grid
 but `value`) lit by the world, the suns and the point lamps the bake holds, with the bake's
-phase asymmetry and, when the bake holds multiple scattering, MULTIPLE_BOUNCES volume bounces
-(otherwise none: the bake holds single scattering only). The engine's render is a linked copy of
-the user's scene (same objects, materials, world and lamps; named with `occlux.blender.PREFIX`
-so that `remove_built` removes it) at the check's size, its film linear as the truth's is.
+phase asymmetry and, when the bake holds multiple scattering, the multiple reference's volume
+bounces (`occlux.blender.DEFAULT_BOUNCES`; otherwise none: the bake holds single scattering
+only). The engine's render is a linked copy of the user's scene (same objects, materials, world
+and lamps; named with `occlux.blender.PREFIX` so that `remove_built` removes it) at the check's
+size, its film linear as the truth's is.
 EEVEE's froxels keep their size relative to the image: the check's image is smaller than the
 user's, so its tile is the user's scaled by the ratio of the widths (`check_tile`), and the
 check measures the blur the user's render has."""
@@ -16,7 +17,6 @@ from __future__ import annotations
 
 import json
 import tempfile
-import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -28,24 +28,22 @@ from .. import material, scenes, truth
 from .bake import BAKED, EEVEE_TILES, baked_lamps, outdated
 from .jobs import JobProgress, Step, Steps
 
-# Volume bounces of the truth of a bake that holds multiple scattering (the solver's count).
-MULTIPLE_BOUNCES = 8
 ENGINES = {"EEVEE": "BLENDER_EEVEE", "CYCLES": "CYCLES"}
 
 
 @dataclass(frozen=True)
 class BakedCheck:
     """What the main-thread part needs: the baked object's name, the plain material's control
-    points and box (from the volume the job loaded), the bake's phase asymmetry and whether it
-    holds multiple scattering, the check's image size and the grey the background shows (which
-    pixels are the volume's, `occlux.image_error`)."""
+    points and box (from the volume the job loaded), the bake's phase asymmetry, the truth's
+    volume bounces (none unless the bake holds multiple scattering), the check's image size and
+    the grey the background shows (which pixels are the volume's, `occlux.image_error`)."""
 
     stem: str
     volume_object: str
     points: Sequence[material.Point] | None
     box: tuple[material.Rgb, material.Rgb]
     g: float
-    multiple: bool
+    bounces: int
     size: tuple[int, int]
     background: float
 
@@ -55,6 +53,8 @@ def prepare(
 ) -> Callable[[JobProgress], BakedCheck]:
     """Checks that the active Occlux volume is baked and its bake current, and returns the work
     that loads its volume (for the truth's plain material)."""
+    import occlux.blender as ob
+
     obj = scenes.volume_object(context)
     if obj is None or BAKED not in obj:
         raise ValueError("checking the baked scene needs a baked Occlux volume: Bake Light first")
@@ -64,15 +64,14 @@ def prepare(
     baked = json.loads(obj[BAKED])
     source = scenes.selected_source(context)
     scene = scenes.build(scenes.volume_tree(source, context.scene.occlux))
-    kinds = (scenes.WORLD, scenes.SUN, scenes.POINT)
-    described = scenes.scene_tree(context, source, *size, kinds)
-    background = float(np.mean(described.tree["background"]))
-    name, g, multiple = obj.name, baked["scattering"]["g"], baked["scattering"]["multiple"]
+    background = float(np.mean(scenes.world_radiance(context.scene)))
+    name, g = obj.name, baked["scattering"]["g"]
+    bounces = ob.DEFAULT_BOUNCES if baked["scattering"]["multiple"] else 0
 
     def work(progress: JobProgress) -> BakedCheck:
         volume = scenes.load_volume(scene, source)
         points = scene.classification.raw_points(volume)
-        return BakedCheck(source.stem, name, points, volume.bounds, g, multiple, size, background)
+        return BakedCheck(source.stem, name, points, volume.bounds, g, bounces, size, background)
 
     return work
 
@@ -98,7 +97,6 @@ def render_as_it_stands(
     truth shows (the volume, the camera and the baked lamps under the world): the scene's
     collections are excluded from the copy's view layers and those objects linked to it."""
     import occlux.blender as ob
-    from occlux.blender.cycles import quiet_stdout
 
     percent = scene.render.resolution_percentage / 100.0
     user_width = round(scene.render.resolution_x * percent)
@@ -125,14 +123,9 @@ def render_as_it_stands(
         ob.linear_exr_output(copy)
         copy.render.resolution_x, copy.render.resolution_y = size
         with tempfile.TemporaryDirectory(prefix="occlux-engine-") as folder:
-            copy.render.filepath = str(Path(folder) / "render.exr")
-            started = time.perf_counter()
-            with quiet_stdout():
-                result = bpy.ops.render.render(write_still=True, scene=copy.name)
-            seconds = time.perf_counter() - started
-            if result != {"FINISHED"}:
-                raise RuntimeError(f"the {engine} render ended with {result}")
-            channels, _ = ob.read_channels(copy.render.filepath)
+            path = Path(folder) / "render.exr"
+            seconds = ob.render_still(copy, path, f"the {engine} render of the baked scene")
+            channels, _ = ob.read_channels(path)
         return np.stack([channels[c] for c in "RGB"], axis=-1).astype(np.float64), seconds
     finally:
         bpy.data.scenes.remove(copy)
@@ -149,9 +142,8 @@ def truth_of_bake(
         name = f"{ob.PREFIX}-plain"
         return material.volume_material(name, check.points, None, 1.0, None, check.box)
 
-    bounces = MULTIPLE_BOUNCES if check.multiple else 0
     kinds = (scenes.WORLD, scenes.SUN, scenes.POINT)
-    return truth.figure_truth(context, obj, kinds, bounces, check.g, check.size, plain=plain)
+    return truth.figure_truth(context, obj, kinds, check.bounces, check.g, check.size, plain=plain)
 
 
 def finish(
@@ -166,12 +158,13 @@ def finish(
 
     settings = context.scene.occlux
     engine, samples = settings.check_engine, settings.check_engine_samples
-    bounces = MULTIPLE_BOUNCES if check.multiple else 0
     obj = bpy.data.objects.get(check.volume_object)
     if obj is None:
         raise ValueError(f"the baked volume object '{check.volume_object}' is gone")
     yield Step(f"{engine} render", 0, 1)
-    image, seconds = render_as_it_stands(context.scene, obj, engine, samples, check.size, bounces)
+    image, seconds = render_as_it_stands(
+        context.scene, obj, engine, samples, check.size, check.bounces
+    )
     try:
         built = truth_of_bake(context, check, obj)
         cycles = yield from cycles_renders(built.scene, settings.check_spp, settings.check_seeds)

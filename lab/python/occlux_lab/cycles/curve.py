@@ -14,7 +14,6 @@ from __future__ import annotations
 import argparse
 import os
 import sys
-import time
 import warnings
 from collections.abc import Sequence
 from pathlib import Path
@@ -27,7 +26,7 @@ from occlux.blender.common import (
     HarnessError,
     effective_options,
 )
-from occlux.blender.cycles import SEQUENCE_LENGTH, bpy_module, build_scene, quiet_stdout
+from occlux.blender.cycles import SEQUENCE_LENGTH, build_scene, render_still
 
 from occlux_lab.peers.common import write_curve
 
@@ -58,7 +57,6 @@ def render_curve(
     blender_scene = build_scene(
         scene, out / f"{scene_path.stem}.vdb", estimator, bounces, g, volume=volume
     )
-    bpy = bpy_module()
     c = blender_scene.cycles
     c.samples = max(SEQUENCE_LENGTH, max(spps))
     c.use_sample_subset = True
@@ -68,13 +66,7 @@ def render_curve(
     for spp in spps:
         exr = out / f"cycles-{estimator}-{spp}spp.exr"
         c.sample_subset_length = spp
-        blender_scene.render.filepath = str(exr)
-        started = time.perf_counter()
-        with quiet_stdout():
-            result = bpy.ops.render.render(write_still=True, scene=blender_scene.name)
-        seconds = time.perf_counter() - started
-        if result != {"FINISHED"}:
-            raise HarnessError(f"Cycles render at {spp} spp ended with {result}")
+        seconds = render_still(blender_scene, exr, f"Cycles render at {spp} spp")
         points.append({"setting": f"{spp} spp", "seconds": seconds, "exr": str(exr), "spp": spp})
     timing = "each render from scratch in one Blender session: the volume build included"
     extra = {"bounces": bounces, "g": g}

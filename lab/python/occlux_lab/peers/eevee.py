@@ -33,7 +33,6 @@ import os
 import statistics
 import sys
 import tempfile
-import time
 from collections.abc import Sequence
 from dataclasses import asdict, dataclass
 from pathlib import Path
@@ -42,7 +41,12 @@ from typing import Any
 import numpy as np
 from occlux._occlux import OccluxError, Scene, write_vdb
 from occlux.blender.common import DEFAULT_BOUNCES, HarnessError, effective_options
-from occlux.blender.cycles import bpy_module, build_blender_scene, linear_exr_output, quiet_stdout
+from occlux.blender.cycles import (
+    bpy_module,
+    build_blender_scene,
+    linear_exr_output,
+    render_still,
+)
 from occlux.blender.scene import CameraSpec, SceneSpec
 
 from .common import CurvePoint, parser, write_curve
@@ -215,18 +219,6 @@ def apply_quality(scene, quality: Quality) -> None:
     e.taa_render_samples = quality.taa_samples
 
 
-def _render(bpy, scene, path: Path) -> float:
-    """Renders ``scene`` to ``path`` and returns the wall time of the render and the write."""
-    scene.render.filepath = str(path)
-    started = time.perf_counter()
-    with quiet_stdout():
-        result = bpy.ops.render.render(write_still=True, scene=scene.name)
-    seconds = time.perf_counter() - started
-    if result != {"FINISHED"}:
-        raise HarnessError(f"EEVEE render to {path} ended with {result}")
-    return seconds
-
-
 def _slug(index: int, quality: Quality) -> str:
     return f"{index}-{quality.name}"
 
@@ -273,15 +265,17 @@ def render_curve(
         blender_scene, spec = build_blender_scene(core, vdb, estimator, bounces, g, volume=volume)
         settings = eevee_settings(blender_scene, spec)
         apply_quality(blender_scene, ladder[0])
-        warmup = _render(bpy, blender_scene, Path(tmp) / "warmup.exr")
+        warmup = render_still(blender_scene, Path(tmp) / "warmup.exr", "EEVEE render")
         points: list[CurvePoint] = []
         renders: list[int] = []
         for index, quality in enumerate(ladder):
             apply_quality(blender_scene, quality)
             exr = out / f"{PEER}-{estimator}-{_slug(index, quality)}.exr"
-            times = [_render(bpy, blender_scene, exr)]
+            times = [render_still(blender_scene, exr, "EEVEE render")]
             if times[0] < REPEAT_BELOW_S:
-                times += [_render(bpy, blender_scene, exr) for _ in range(repeats - 1)]
+                times += [
+                    render_still(blender_scene, exr, "EEVEE render") for _ in range(repeats - 1)
+                ]
             points.append(
                 {"setting": quality.setting, "seconds": statistics.median(times), "exr": str(exr)}
             )

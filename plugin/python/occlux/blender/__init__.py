@@ -52,6 +52,7 @@ from occlux.blender.cycles import (
     render_cycles,
     render_scene,
     render_seeds,
+    render_still,
 )
 from occlux.blender.images import OccluxImage, read_channels, read_reference, write_outputs
 from occlux.blender.material import PREFIX
@@ -117,6 +118,7 @@ __all__ = [
     "render_cycles",
     "render_scene",
     "render_seeds",
+    "render_still",
     "write_outputs",
     "z_scores",
 ]

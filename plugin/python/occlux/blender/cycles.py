@@ -363,6 +363,21 @@ def quiet_stdout():
         os.close(saved)
 
 
+def render_still(scene, path: Path | str, what: str) -> float:
+    """Renders ``scene`` into the file ``path`` (its output settings as they are), quietly, and
+    returns the seconds the render and the write took; a render that does not finish raises
+    HarnessError naming ``what`` was rendered."""
+    bpy = bpy_module()
+    scene.render.filepath = str(path)
+    started = time.perf_counter()
+    with quiet_stdout():
+        result = bpy.ops.render.render(write_still=True, scene=scene.name)
+    seconds = time.perf_counter() - started
+    if result != {"FINISHED"}:
+        raise HarnessError(f"{what} to {path} ended with {result}")
+    return seconds
+
+
 @dataclass(frozen=True)
 class SeedDone:
     """Progress of :func:`render_seeds`: ``done`` of ``total`` renders finished."""
@@ -383,7 +398,6 @@ def render_seeds(
     per_seed = spp // seeds
     if per_seed < 1:
         raise HarnessError(f"spp ({spp}) must be at least the number of seeds ({seeds})")
-    bpy = bpy_module()
     c = scene.cycles
     c.samples = max(SEQUENCE_LENGTH, per_seed * seeds)
     c.use_sample_subset = True
@@ -399,11 +413,7 @@ def render_seeds(
             for k, seed in enumerate(seed_list):
                 c.seed = seed
                 c.sample_offset = k * per_seed
-                scene.render.filepath = str(Path(tmp) / f"seed{seed}.exr")
-                with quiet_stdout():
-                    result = bpy.ops.render.render(write_still=True, scene=scene.name)
-                if result != {"FINISHED"}:
-                    raise HarnessError(f"Cycles render at seed {seed} ended with {result}")
+                render_still(scene, Path(tmp) / f"seed{seed}.exr", f"Cycles render at seed {seed}")
                 channels, _ = read_channels(scene.render.filepath)
                 rgb = np.stack([channels[ch] for ch in "RGB"], axis=-1).astype(np.float64)
                 total = total + rgb
