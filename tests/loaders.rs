@@ -1045,6 +1045,47 @@ fn with(
     out
 }
 
+/// The loaders decode a payload a few MiB at a time: a volume of several such chunks (doubles,
+/// so a chunk holds half as many values as bytes) must come out whole, in order, and a file cut
+/// in a later chunk must say how much of it arrived.
+#[test]
+fn payloads_of_several_decode_chunks_load_whole_and_truncate_by_name() {
+    let dir = tempfile::tempdir().unwrap();
+    let dims = [97, 89, 211]; // 1.8 M doubles, 14.6 MB: four chunks, none aligned to a row
+    let count = dims.iter().product::<usize>();
+    let values: Vec<f64> = (0..count).map(|i| (i % 65_521) as f64 - 3e4).collect();
+    let packed = encode(ScalarType::F64, &values, true);
+    let sizes = format!("{} {} {}", dims[0], dims[1], dims[2]);
+    for encoding in ["raw", "gzip"] {
+        let fields = [
+            ("type", "double"),
+            ("dimension", "3"),
+            ("sizes", sizes.as_str()),
+            ("endian", "big"),
+            ("encoding", encoding),
+        ];
+        let data = |bytes: &[u8]| match encoding {
+            "gzip" => gzip(bytes),
+            _ => bytes.to_vec(),
+        };
+        let path = dir.path().join(format!("whole-{encoding}.nrrd"));
+        write_nrrd(&path, &fields, &data(&packed));
+        let volume = load(&path, &opts()).unwrap();
+        assert_eq!(volume.values(), as_f32(&values), "{encoding}");
+
+        let cut_at = packed.len() - 1_000_003;
+        let cut = dir.path().join(format!("cut-{encoding}.nrrd"));
+        write_nrrd(&cut, &fields, &data(&packed[..cut_at]));
+        assert_mentions(
+            &failure(&cut, &opts()),
+            &[
+                "truncated",
+                &format!("need {} bytes, found {cut_at}", packed.len()),
+            ],
+        );
+    }
+}
+
 #[test]
 fn truncated_payloads_state_expected_and_found_bytes() {
     let dir = tempfile::tempdir().unwrap();

@@ -383,60 +383,80 @@ fn in_file(path: &Path, error: Error) -> Error {
     }
 }
 
-/// Bytes read before the payload's buffer first grows (64 KiB).
-const FIRST_READ: usize = 1 << 16;
+/// Values allocated before the volume first grows (64 Ki).
+const FIRST_VALUES: usize = 1 << 16;
 
-/// Reads exactly the payload's bytes from `reader`; `what` names the data in messages ("gzip
-/// data"). Fewer bytes, a decoding error, or bytes left over are errors stating expected vs found:
-/// left-over data means the header's sizes or type do not describe the file.
-fn read_payload(
+/// Bytes read and decoded at a time (4 MiB, a multiple of every type's size): the only copy of
+/// the file's bytes a loader holds, so that a volume costs its f32 values and no more.
+const CHUNK_BYTES: usize = 4 << 20;
+
+/// Reads exactly the payload's bytes from `reader`, decoding them to f32 as they arrive
+/// ([`decode_into`]); `what` names the data in messages ("gzip data"). Fewer bytes, a decoding
+/// error, or bytes left over are errors stating expected vs found: left-over data means the
+/// header's sizes or type do not describe the file.
+fn read_values(
     path: &Path,
     mut reader: impl Read,
     what: &str,
     layout: &Layout,
-) -> Result<Vec<u8>> {
+) -> Result<Vec<f32>> {
     let expected = layout.byte_len;
-    let mut bytes = Vec::new();
+    let value_size = layout.scalar.size();
+    let count = expected / value_size;
+    let mut values: Vec<f32> = Vec::new();
+    let mut chunk = vec![0u8; CHUNK_BYTES.min(expected)];
     let mut filled = 0;
     while filled < expected {
-        if filled == bytes.len() {
+        let want = (expected - filled).min(chunk.len());
+        let mut got = 0;
+        while got < want {
+            match reader.read(&mut chunk[got..want]) {
+                Ok(0) => {
+                    return Err(Error::format(
+                        path,
+                        format!(
+                            "{what} truncated: {} need {expected} bytes, found {}",
+                            layout.describe(),
+                            filled + got
+                        ),
+                    ))
+                }
+                Ok(n) => got += n,
+                Err(e) if e.kind() == ErrorKind::Interrupted => {}
+                Err(e) => {
+                    return Err(Error::format(
+                        path,
+                        format!(
+                            "{what} corrupt or truncated after {} of the {expected} bytes that {} need: {e}",
+                            filled + got,
+                            layout.describe()
+                        ),
+                    ))
+                }
+            }
+        }
+        let arrived = want / value_size;
+        if values.capacity() - values.len() < arrived {
             // Grow with the data that arrives, at most doubling, rather than by what the header
             // claims: a truncated file or a corrupt size then costs what the file holds.
-            let more = (expected - filled).min(filled.max(FIRST_READ));
-            bytes.try_reserve_exact(more).map_err(|_| {
+            let more = (count - values.len()).min(values.len().max(FIRST_VALUES).max(arrived));
+            values.try_reserve_exact(more).map_err(|_| {
                 Error::format(
                     path,
-                    format!("cannot allocate {expected} bytes for {}", layout.describe()),
+                    format!(
+                        "cannot allocate {} bytes of f32 values for {}",
+                        count * 4,
+                        layout.describe()
+                    ),
                 )
             })?;
-            bytes.resize(filled + more, 0);
         }
-        match reader.read(&mut bytes[filled..]) {
-            Ok(0) => {
-                return Err(Error::format(
-                    path,
-                    format!(
-                        "{what} truncated: {} need {expected} bytes, found {filled}",
-                        layout.describe()
-                    ),
-                ))
-            }
-            Ok(n) => filled += n,
-            Err(e) if e.kind() == ErrorKind::Interrupted => {}
-            Err(e) => {
-                return Err(Error::format(
-                    path,
-                    format!(
-                        "{what} corrupt or truncated after {filled} of the {expected} bytes that {} need: {e}",
-                        layout.describe()
-                    ),
-                ))
-            }
-        }
+        decode_into(&chunk[..want], layout, &mut values);
+        filled += want;
     }
     let mut probe = [0u8; 1];
     match reader.read(&mut probe) {
-        Ok(0) => Ok(bytes),
+        Ok(0) => Ok(values),
         Ok(_) => Err(Error::format(
             path,
             format!(
@@ -451,8 +471,8 @@ fn read_payload(
     }
 }
 
-/// Passes over the frames before `step` in `reader`, then reads the frame's bytes (see
-/// [`read_payload`]; `what` names the data). A frame followed by others is read from a reader
+/// Passes over the frames before `step` in `reader`, then reads the frame's values (see
+/// [`read_values`]; `what` names the data). A frame followed by others is read from a reader
 /// that ends with it, so that the later frames stay unread.
 fn read_frame(
     path: &Path,
@@ -460,7 +480,7 @@ fn read_frame(
     what: &str,
     layout: &Layout,
     step: TimeStep,
-) -> Result<Vec<u8>> {
+) -> Result<Vec<f32>> {
     let frame_bytes = layout.byte_len as u64;
     // A product past u64 cannot be in a file: passing over it fails on the file's end.
     let before = frame_bytes.saturating_mul(step.index as u64);
@@ -474,7 +494,7 @@ fn read_frame(
     } else {
         u64::MAX
     };
-    read_payload(path, reader.take(limit), &step.name(what), layout)
+    read_values(path, reader.take(limit), &step.name(what), layout)
 }
 
 /// A payload's stream that can pass over bytes without handing them out.
@@ -525,41 +545,39 @@ fn skip(path: &Path, reader: &mut impl Read, count: u64, what: &str) -> Result<(
     Ok(())
 }
 
-/// The one conversion of stored values to f32, used by every loader: `bytes` holds
-/// `layout.byte_len` packed values in the layout's type and byte order. Integers convert
+/// The one conversion of stored values to f32, used by every loader: appends the values that
+/// `bytes` holds, packed in the layout's type and byte order, to `values`. Integers convert
 /// exactly up to 2^24 and round beyond; doubles round to the nearest f32.
-fn decode(bytes: &[u8], layout: &Layout) -> Vec<f32> {
+fn decode_into(bytes: &[u8], layout: &Layout, values: &mut Vec<f32>) {
     let big = layout.big_endian;
     match layout.scalar {
-        ScalarType::U8 => bytes.par_iter().map(|&b| f32::from(b)).collect(),
-        ScalarType::I8 => bytes.par_iter().map(|&b| f32::from(b as i8)).collect(),
-        ScalarType::U16 => convert(bytes, big, |b| f32::from(u16::from_le_bytes(b))),
-        ScalarType::I16 => convert(bytes, big, |b| f32::from(i16::from_le_bytes(b))),
-        ScalarType::U32 => convert(bytes, big, |b| u32::from_le_bytes(b) as f32),
-        ScalarType::I32 => convert(bytes, big, |b| i32::from_le_bytes(b) as f32),
-        ScalarType::F32 => convert(bytes, big, f32::from_le_bytes),
-        ScalarType::F64 => convert(bytes, big, |b| f64::from_le_bytes(b) as f32),
+        ScalarType::U8 => values.par_extend(bytes.par_iter().map(|&b| f32::from(b))),
+        ScalarType::I8 => values.par_extend(bytes.par_iter().map(|&b| f32::from(b as i8))),
+        ScalarType::U16 => convert(bytes, big, values, |b| f32::from(u16::from_le_bytes(b))),
+        ScalarType::I16 => convert(bytes, big, values, |b| f32::from(i16::from_le_bytes(b))),
+        ScalarType::U32 => convert(bytes, big, values, |b| u32::from_le_bytes(b) as f32),
+        ScalarType::I32 => convert(bytes, big, values, |b| i32::from_le_bytes(b) as f32),
+        ScalarType::F32 => convert(bytes, big, values, f32::from_le_bytes),
+        ScalarType::F64 => convert(bytes, big, values, |b| f64::from_le_bytes(b) as f32),
     }
 }
 
-/// Applies `from_le` to each `N`-byte value, reversing big-endian values first so that byte
-/// order is handled in this one place.
+/// Appends `from_le` of each `N`-byte value to `values`, reversing big-endian values first so
+/// that byte order is handled in this one place.
 fn convert<const N: usize>(
     bytes: &[u8],
     big_endian: bool,
+    values: &mut Vec<f32>,
     from_le: impl Fn([u8; N]) -> f32 + Sync,
-) -> Vec<f32> {
-    bytes
-        .par_chunks_exact(N)
-        .map(|chunk| {
-            let mut value = [0u8; N];
-            value.copy_from_slice(chunk);
-            if big_endian {
-                value.reverse();
-            }
-            from_le(value)
-        })
-        .collect()
+) {
+    values.par_extend(bytes.par_chunks_exact(N).map(|chunk| {
+        let mut value = [0u8; N];
+        value.copy_from_slice(chunk);
+        if big_endian {
+            value.reverse();
+        }
+        from_le(value)
+    }));
 }
 
 /// Checks that per-axis spacings from `field` are positive and finite.
@@ -704,16 +722,11 @@ mod tests {
                 ScalarType::F64 => value.to_le_bytes().to_vec(),
             };
             let be: Vec<u8> = le.iter().rev().copied().collect();
-            assert_eq!(
-                decode(&le, &layout(scalar, false, 1)),
-                vec![value as f32],
-                "{scalar:?}"
-            );
-            assert_eq!(
-                decode(&be, &layout(scalar, true, 1)),
-                vec![value as f32],
-                "{scalar:?}"
-            );
+            for (bytes, big_endian) in [(le.clone(), false), (be, true)] {
+                let mut values = vec![7.0];
+                decode_into(&bytes, &layout(scalar, big_endian, 1), &mut values);
+                assert_eq!(values, vec![7.0, value as f32], "{scalar:?}");
+            }
         }
     }
 

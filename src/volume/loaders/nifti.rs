@@ -20,8 +20,8 @@
 //! integer data.
 
 use super::{
-    check_spacing, decode, finish, read_frame, skip, Layout, LoadOptions, Placement, ScalarType,
-    Source, SourceInfo, TimeStep,
+    check_spacing, finish, read_frame, skip, Layout, LoadOptions, Placement, ScalarType, Source,
+    SourceInfo, TimeStep,
 };
 use crate::error::{Error, Result};
 use crate::volume::Volume;
@@ -48,9 +48,7 @@ pub(super) fn load(path: &Path, opts: &LoadOptions) -> Result<(Volume, SourceInf
     } = Parsed::read(path, reader, opts)?;
     let step = TimeStep::chosen(path, frames, opts)?;
     skip(path, &mut reader, data_start - HEADER_BYTES, "vox_offset")?;
-    let bytes = read_frame(path, reader, "NIfTI data", &layout, step)?;
-    let mut values = decode(&bytes, &layout);
-    drop(bytes);
+    let mut values = read_frame(path, reader, "NIfTI data", &layout, step)?;
     rescale(&mut values, header.scl_slope, header.scl_inter);
     let (volume, non_finite) = finish(path, layout.dims, placement, values, opts)?;
     let info = SourceInfo {

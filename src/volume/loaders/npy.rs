@@ -8,9 +8,7 @@
 //! fastest, and is reordered on loading (one pass over the voxels), so it loads exactly as the
 //! C-order file of the same array. Spacing is 1 and the origin 0 (the format has no geometry).
 
-use super::{
-    decode, finish, read_payload, Frame, Layout, LoadOptions, Placement, ScalarType, SourceInfo,
-};
+use super::{finish, read_values, Frame, Layout, LoadOptions, Placement, ScalarType, SourceInfo};
 use crate::error::{Error, Result};
 use crate::volume::Volume;
 use glam::Vec3;
@@ -33,9 +31,7 @@ pub(super) fn load(path: &Path, opts: &LoadOptions) -> Result<(Volume, SourceInf
     let (scalar, big_endian) = dtype(path, &header.descr)?;
     let dims = dims(path, &header.shape)?;
     let layout = Layout::checked(path, dims, scalar, big_endian, opts)?;
-    let bytes = read_payload(path, reader, "array data", &layout)?;
-    let mut values = decode(&bytes, &layout);
-    drop(bytes);
+    let mut values = read_values(path, reader, "array data", &layout)?;
     if header.fortran_order {
         values = c_order(&values, dims);
     }

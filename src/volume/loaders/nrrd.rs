@@ -20,7 +20,7 @@
 //! space is refused (it would mirror).
 
 use super::{
-    check_spacing, decode, finish, read_frame, skip, Layout, LoadOptions, Placement, ScalarType,
+    check_spacing, finish, read_frame, skip, Layout, LoadOptions, Placement, ScalarType,
     SourceInfo, TimeStep,
 };
 use crate::error::{Error, Result};
@@ -37,15 +37,13 @@ const MAX_HEADER_BYTES: u64 = 1 << 20;
 pub(super) fn load(path: &Path, opts: &LoadOptions) -> Result<(Volume, SourceInfo)> {
     let (reader, fields, header) = open(path, opts)?;
     let step = TimeStep::chosen(path, header.frames, opts)?;
-    let bytes = match &header.data_file {
+    let values = match &header.data_file {
         None => read_data(path, reader, &header, step)?,
         Some(data) => {
             let file = File::open(data).map_err(|e| Error::io(data, e))?;
             read_data(data, BufReader::new(file), &header, step)?
         }
     };
-    let values = decode(&bytes, &header.layout);
-    drop(bytes);
     let (volume, non_finite) = finish(path, header.layout.dims, header.placement, values, opts)?;
     let info = SourceInfo {
         format: "NRRD",
@@ -528,7 +526,7 @@ fn read_data(
     mut reader: BufReader<File>,
     header: &Header,
     step: TimeStep,
-) -> Result<Vec<u8>> {
+) -> Result<Vec<f32>> {
     for skipped in 0..header.line_skip {
         if reader
             .skip_until(b'\n')

@@ -3,8 +3,7 @@
 //! `header_bytes + voxels * type size`: anything else means the spec does not describe the file.
 
 use super::{
-    check_spacing, decode, finish, read_payload, skip, Frame, Layout, LoadOptions, Placement,
-    SourceInfo,
+    check_spacing, finish, read_values, skip, Frame, Layout, LoadOptions, Placement, SourceInfo,
 };
 use crate::error::{Error, Result};
 use crate::volume::Volume;
@@ -65,9 +64,7 @@ pub(super) fn load(path: &Path, opts: &LoadOptions) -> Result<(Volume, SourceInf
     }
     let mut reader = BufReader::new(file);
     skip(path, &mut reader, spec.header_bytes, "header_bytes")?;
-    let bytes = read_payload(path, reader, "raw data", &layout)?;
-    let values = decode(&bytes, &layout);
-    drop(bytes);
+    let values = read_values(path, reader, "raw data", &layout)?;
     let (volume, non_finite) = finish(
         path,
         spec.dims,
