@@ -344,7 +344,7 @@ def load_volume(scene: occlux.Scene, source: VolumeInput, settle: bool = False) 
     try:
         return scene.settle()[0] if settle else scene.load_volume()
     except occlux.OccluxError as e:
-        if "memory budget" not in str(e):
+        if "available (volume.memory_budget_gib)" not in str(e):
             raise
         raise occlux.OccluxError(
             f"{e} (Memory budget in the Occlux panel: {source.memory_budget_mb} MB)"

@@ -15,6 +15,7 @@ pub mod framing;
 pub mod gpu;
 pub mod json;
 pub mod lights;
+pub mod memory;
 pub mod method;
 pub mod metric;
 pub mod names;

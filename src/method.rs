@@ -260,7 +260,19 @@ pub trait RenderMethod: Clone + Debug + PartialEq + Default + Serialize + Deseri
     fn model(&self) -> Option<Model> {
         None
     }
+
+    /// Peak memory of a render (or export) with these parameters, as a multiple of the dense
+    /// f32 volume: the volume and what the renderer keeps per voxel besides. The loaders refuse
+    /// a volume whose peak would not fit ([`crate::memory::MemoryBudget`]).
+    fn peak_volumes(&self) -> f64 {
+        RENDER_PEAK_VOLUMES
+    }
 }
+
+/// The peak of a render that keeps no grid of its own beside the volume: the volume, the
+/// occupancy and majorant grids (a small fraction of it) and the image (measured by
+/// `bench/memory.sh`: 1.02-1.05x at 512^3, so this holds a margin for the image at 4096^2).
+pub const RENDER_PEAK_VOLUMES: f64 = 1.2;
 
 /// A path-traced model a method approximates (see [`RenderMethod::model`]).
 #[derive(Clone, Copy, Debug, PartialEq)]

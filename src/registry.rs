@@ -248,6 +248,14 @@ macro_rules! methods {
                 }
             }
 
+            /// Peak memory of a render as a multiple of the dense f32 volume
+            /// ([`RenderMethod::peak_volumes`]).
+            pub fn peak_volumes(&self) -> f64 {
+                match self {
+                    $(Method::$variant(params) => params.peak_volumes(),)*
+                }
+            }
+
             /// Renders the method for an already loaded volume.
             pub fn render(&self, input: &MethodInput) -> Result<Rendered> {
                 match self {

@@ -48,6 +48,7 @@ use crate::classify::{
 };
 use crate::error::{Error, Result};
 use crate::lights::{Light, Lighting};
+use crate::memory::MemoryLimit;
 pub use crate::registry::Method;
 use crate::series::FrameSpec;
 use crate::volume::{self, phantom, LoadOptions, NonFinite, RawSpec, ScalarType, Volume};
@@ -195,25 +196,60 @@ impl Scene {
         Ok(self.load()?.volume)
     }
 
+    /// [`Scene::load_volume`] for a command other than the scene's render, which holds
+    /// `volumes` dense f32 volumes at its peak (`holder` names it in a refusal).
+    pub fn load_volume_holding(&self, volumes: f64, holder: &str) -> Result<Volume> {
+        Ok(self.load_holding(volumes, holder)?.volume)
+    }
+
     /// Loads (or generates) the volume, places it in the world, and settles what depends on
     /// the data: Hounsfield presets, the classification's window, the content centre and the
     /// framed camera, with a notice for each and for an optical depth too small or large to
-    /// show (see [`crate::framing`]).
+    /// show (see [`crate::framing`]). A volume whose render would not fit in memory is
+    /// refused before its voxels are read ([`Scene::peak_volumes`]).
     pub fn load(&self) -> Result<Loaded> {
-        let (volume, hounsfield) = self.load_placed()?;
+        let holder = format!("method = \"{}\"", self.method.spec().name);
+        self.load_holding(self.peak_volumes(), &holder)
+    }
+
+    /// [`Scene::load`] for a command that holds `volumes` dense f32 volumes at its peak.
+    pub fn load_holding(&self, volumes: f64, holder: &str) -> Result<Loaded> {
+        let (volume, hounsfield) = self.load_placed(volumes, holder)?;
         crate::framing::settle(self, volume, hounsfield.as_deref())
     }
 
+    /// The scene's render's peak memory as a multiple of the dense f32 volume: its method's,
+    /// or with `method = "auto"` the largest any registered method takes at its defaults
+    /// (the planner may choose any).
+    pub fn peak_volumes(&self) -> f64 {
+        match self.auto {
+            None => self.method.peak_volumes(),
+            Some(_) => crate::registry::METHODS
+                .iter()
+                .filter_map(|spec| spec.at_setting("").ok())
+                .map(|method| method.peak_volumes())
+                .fold(self.method.peak_volumes(), f64::max),
+        }
+    }
+
     /// The volume scaled by `fit` and moved to a `centre` point, and why its values are HU
-    /// when its file says so.
-    fn load_placed(&self) -> Result<(Volume, Option<String>)> {
+    /// when its file says so; the memory checked for a command holding `volumes` of it.
+    fn load_placed(&self, volumes: f64, holder: &str) -> Result<(Volume, Option<String>)> {
         let src = &self.volume;
+        let memory = src.options.memory.clone().holding(volumes, holder);
         let (mut volume, hounsfield) = match &src.kind {
             SourceKind::File(path) => {
-                let (volume, info) = volume::load_with_info(path, &src.options)?;
+                let options = LoadOptions {
+                    memory,
+                    ..src.options.clone()
+                };
+                let (volume, info) = volume::load_with_info(path, &options)?;
                 (volume, info.hounsfield)
             }
-            SourceKind::Phantom { name, size } => (phantom::by_name(name, *size)?, None),
+            SourceKind::Phantom { name, size } => {
+                memory.check([*size; 3])?;
+                (phantom::by_name(name, *size)?, None)
+            }
         };
         if let Some(fit) = src.fit {
             let (lo, hi) = volume.bounds();
@@ -697,7 +733,8 @@ impl VolumeSection {
                     format!("must be positive, got {gib}"),
                 ));
             }
-            options.memory_budget = (gib * (1u64 << 30) as f64) as u64;
+            let bytes = (gib * (1u64 << 30) as f64) as u64;
+            options.memory.limit = MemoryLimit::Bytes(bytes, "volume.memory_budget_gib");
         }
         if let Some(raw) = self.raw {
             options.raw = Some(RawSpec {

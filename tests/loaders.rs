@@ -1343,7 +1343,7 @@ fn absurd_sizes_fail_on_the_budget_before_reading() {
         let started = std::time::Instant::now();
         assert_mentions(
             &failure(&path, &opts()),
-            &["100000x100000x100000", "memory budget"],
+            &["100000x100000x100000", "available"],
         );
         assert!(started.elapsed().as_secs_f32() < 1.0);
     }
@@ -1356,7 +1356,7 @@ fn absurd_sizes_fail_on_the_budget_before_reading() {
         &[100_000, 100_000, 100_000],
         &[0; 16],
     );
-    assert_mentions(&failure(&npy, &opts()), &["memory budget"]);
+    assert_mentions(&failure(&npy, &opts()), &["available ("]);
 
     let nii = dir.path().join("huge.nii");
     std::fs::write(
@@ -1364,7 +1364,7 @@ fn absurd_sizes_fail_on_the_budget_before_reading() {
         Nifti::new([30000, 30000, 30000], ty(ScalarType::U8)).bytes(&[0; 16]),
     )
     .unwrap();
-    assert_mentions(&failure(&nii, &opts()), &["memory budget"]);
+    assert_mentions(&failure(&nii, &opts()), &["available ("]);
 
     let raw = dir.path().join("huge.raw");
     std::fs::write(&raw, [0u8; 16]).unwrap();
@@ -1384,7 +1384,7 @@ fn absurd_sizes_fail_on_the_budget_before_reading() {
                 ..opts()
             },
         ),
-        &["memory budget"],
+        &["available ("],
     );
 
     // A small budget applies to small files too.
@@ -1396,14 +1396,14 @@ fn absurd_sizes_fail_on_the_budget_before_reading() {
     ];
     let path = small_nrrd(dir.path(), "small.nrrd", &fields, &[0; 64]);
     let tight = LoadOptions {
-        memory_budget: 100,
+        memory: cap(100),
         ..opts()
     };
-    assert_mentions(&failure(&path, &tight), &["memory budget"]);
+    assert_mentions(&failure(&path, &tight), &["available (a test's cap)"]);
     assert!(load(
         &path,
         &LoadOptions {
-            memory_budget: 256,
+            memory: cap(256),
             ..opts()
         }
     )
@@ -1944,7 +1944,7 @@ fn frames_that_cannot_be_placed_are_refused_by_name() {
     assert_mentions(&unknown, &["space", "right-posterior-inferior"]);
     // An oblique frame whose world-aligned grid would exceed the memory budget.
     let small = LoadOptions {
-        memory_budget: 64,
+        memory: cap(64),
         ..opts()
     };
     write_nrrd(
@@ -1958,7 +1958,10 @@ fn frames_that_cannot_be_placed_are_refused_by_name() {
         ],
         &[1, 2, 3, 4, 5, 6, 7, 8],
     );
-    assert_mentions(&failure(&path, &small), &["oblique", "memory budget"]);
+    assert_mentions(
+        &failure(&path, &small),
+        &["oblique", "world-aligned grid", "available (a test's cap)"],
+    );
 }
 
 /// Found by fuzzing (fuzz/README.md): an sform with spacings of 3e38 and 3e-29 loaded, and its
@@ -2056,4 +2059,12 @@ fn files_that_say_their_values_are_hounsfield_units_are_recognised() {
     assert!(nrrd("hounsfield.nrrd", Some("Hounsfield units")).is_some());
     assert!(nrrd("mm.nrrd", Some("mm")).is_none());
     assert!(nrrd("none.nrrd", None).is_none());
+}
+
+/// A memory budget of `bytes`, as a user's cap.
+fn cap(bytes: u64) -> occlux::memory::MemoryBudget {
+    occlux::memory::MemoryBudget {
+        limit: occlux::memory::MemoryLimit::Bytes(bytes, "a test's cap"),
+        ..Default::default()
+    }
 }

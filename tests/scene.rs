@@ -479,3 +479,37 @@ fn loading_settles_hounsfield_presets_and_the_window() {
         .iter()
         .any(|n| n.contains("units = \"hu\"")));
 }
+
+/// A volume that cannot fit beside what its command holds is refused before it is made, with
+/// the need, the command's multiple and the bytes available named; the same volume fits a
+/// lighter command.
+#[test]
+fn the_memory_check_weighs_the_command_before_loading() {
+    // A 64^3 phantom: 1.0 MiB as f32, under a cap of 2 MiB.
+    let scene = parse(
+        "[volume]\nphantom = \"ct\"\nsize = 64\nmemory_budget_gib = 0.001953125\n\
+         [camera]\nposition = [0, -4, 0]\n\
+         [render]\nmethod = \"ao\"\nao_method = \"sweep-physical\"\n",
+    )
+    .unwrap();
+    let err = scene.load_volume().unwrap_err().to_string();
+    let peak = scene.peak_volumes();
+    assert!(
+        peak >= occlux::ao::AoMethod::SweepPhysical.peak_volumes(),
+        "{peak}"
+    );
+    for part in [
+        "64x64x64 need 1.0 MiB as f32".to_owned(),
+        format!("method = \"ao\" holds about {peak:.1} such volumes"),
+        "more than the 2.0 MiB available (volume.memory_budget_gib)".to_owned(),
+    ] {
+        assert!(err.contains(&part), "{part:?} not in {err}");
+    }
+    assert_eq!(
+        scene
+            .load_volume_holding(1.5, "a lighter command")
+            .unwrap()
+            .dims(),
+        [64; 3]
+    );
+}

@@ -162,11 +162,11 @@ fn bad_files_and_grids_are_clear_errors() {
     assert!(err.contains("junk.vdb") && err.contains("magic"), "{err}");
 
     let tight = LoadOptions {
-        memory_budget: 100,
+        memory: cap(100),
         ..LoadOptions::default()
     };
     let err = load(&path, &tight).unwrap_err().to_string();
-    assert!(err.contains("memory budget"), "{err}");
+    assert!(err.contains("available (a test's cap)"), "{err}");
 }
 
 #[test]
@@ -337,4 +337,12 @@ fn fog_volumes_are_padded_by_their_border_and_read_back_unpadded() {
     assert_eq!(back.dims(), dims);
     assert_eq!(back.origin(), origin);
     assert_eq!(back.values(), volume.values());
+}
+
+/// A memory budget of `bytes`, as a user's cap.
+fn cap(bytes: u64) -> occlux::memory::MemoryBudget {
+    occlux::memory::MemoryBudget {
+        limit: occlux::memory::MemoryLimit::Bytes(bytes, "a test's cap"),
+        ..Default::default()
+    }
 }

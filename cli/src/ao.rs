@@ -32,7 +32,8 @@ pub fn ao_volume(
     if let Some(line) = device_notice {
         notice(quiet, line);
     }
-    let volume = parsed.load_volume()?;
+    let holder = format!("ao --method {}", params.method.name());
+    let volume = parsed.load_volume_holding(params.peak_volumes(), &holder)?;
     let on = if params.method.cpu_only() {
         Compute::Cpu.describe()
     } else {

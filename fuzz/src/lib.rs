@@ -2,6 +2,7 @@
 //! with a memory budget small enough for libFuzzer's RSS limit, and the invariants a volume
 //! that loads must hold.
 
+use occlux::memory::{MemoryBudget, MemoryLimit};
 use occlux::volume::{load, LoadOptions, Volume};
 use std::path::PathBuf;
 
@@ -34,7 +35,10 @@ pub fn scratch() -> PathBuf {
 pub fn load_as(extension: &str, data: &[u8], options: LoadOptions) {
     let path = file_with(extension, data);
     let options = LoadOptions {
-        memory_budget: BUDGET,
+        memory: MemoryBudget {
+            limit: MemoryLimit::Bytes(BUDGET, "the fuzzers' budget"),
+            ..MemoryBudget::default()
+        },
         ..options
     };
     if let Ok(volume) = load(&path, &options) {

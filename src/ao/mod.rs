@@ -66,6 +66,17 @@ impl AoMethod {
         }
     }
 
+    /// Peak memory of `occlux ao` with this method, as a multiple of the dense f32 volume: the
+    /// volume, the method's working grids and the AO grid (measured by `bench/memory.sh` at
+    /// 512^3, rounded up). The loaders refuse a volume whose peak would not fit.
+    pub fn peak_volumes(self) -> f64 {
+        match self {
+            AoMethod::Vao(_) => 2.2,
+            AoMethod::Sweep => 2.5,
+            AoMethod::SweepPhysical | AoMethod::Ordinates => 2.4,
+        }
+    }
+
     /// Whether it runs on the CPU whatever the device (the exact count, a reference).
     pub fn cpu_only(self) -> bool {
         self == AoMethod::Vao(Estimator::Exact)
@@ -220,6 +231,21 @@ impl Default for AoVolumeParams {
 }
 
 impl AoVolumeParams {
+    /// Peak memory of the AO volume's computation, as a multiple of the dense f32 volume:
+    /// the method's ([`AoMethod::peak_volumes`]), the variance grid and, for the geometric
+    /// sweep, the eight octant grids when kept.
+    pub fn peak_volumes(&self) -> f64 {
+        let variance = f64::from(u8::from(
+            self.variance && matches!(self.method, AoMethod::Vao(_)),
+        ));
+        let octants = if self.octants && self.method == AoMethod::Sweep {
+            8.0
+        } else {
+            0.0
+        };
+        self.method.peak_volumes() + variance + octants
+    }
+
     /// VAO's parameters, for a VAO method.
     pub fn vao(&self) -> Option<VaoParams> {
         match self.method {

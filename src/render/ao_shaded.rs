@@ -450,6 +450,13 @@ impl RenderMethod for AoParams {
         }
         grids
     }
+
+    /// The AO volume's computation, and then its grids beside the volume while rendering.
+    fn peak_volumes(&self) -> f64 {
+        self.ao_method
+            .peak_volumes()
+            .max(crate::method::RENDER_PEAK_VOLUMES + self.grids().len() as f64)
+    }
 }
 
 /// Computes the AO volume (progress: its units first, then the image rows) and renders with it;

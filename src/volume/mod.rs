@@ -18,9 +18,6 @@ use crate::error::{Error, Result};
 use glam::Vec3;
 use std::sync::OnceLock;
 
-/// Largest volume the loaders allocate by default, in bytes of f32 values (8 GiB).
-pub const DEFAULT_MEMORY_BUDGET: u64 = 8 << 30;
-
 /// A dense scalar volume in world units.
 #[derive(Clone, Debug)]
 pub struct Volume {
@@ -284,36 +281,6 @@ pub fn voxel_count(dims: [usize; 3]) -> Result<usize> {
         })
 }
 
-/// Checks, before allocating, that a volume of `dims` fits in `budget` bytes of f32 values.
-pub fn check_budget(dims: [usize; 3], budget: u64) -> Result<usize> {
-    let count = voxel_count(dims)?;
-    let bytes = (count as u128) * 4;
-    if bytes > budget as u128 {
-        return Err(Error::Volume(format!(
-            "dims {}x{}x{} need {} as f32, over the memory budget of {}",
-            dims[0],
-            dims[1],
-            dims[2],
-            size_text(bytes as f64),
-            size_text(budget as f64)
-        )));
-    }
-    Ok(count)
-}
-
-/// A byte count for people: GiB from 1 GiB up, else MiB, else KiB (a 5 MiB budget must not
-/// read "0.0 GiB").
-fn size_text(bytes: f64) -> String {
-    const KIB: f64 = 1024.0;
-    if bytes >= KIB * KIB * KIB {
-        format!("{:.1} GiB", bytes / (KIB * KIB * KIB))
-    } else if bytes >= KIB * KIB {
-        format!("{:.1} MiB", bytes / (KIB * KIB))
-    } else {
-        format!("{:.1} KiB", bytes / KIB)
-    }
-}
-
 /// The smallest voxel, relative to the box's distance from the world's origin, that f32
 /// positions still resolve: 8 of f32's steps (1.2e-7 each) per voxel.
 const MIN_RELATIVE_SPACING: f32 = 1e-6;
@@ -353,22 +320,6 @@ fn unflatten(dims: [usize; 3], index: usize) -> [usize; 3] {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn budget_errors_say_sizes_in_readable_units() {
-        let err = check_budget([512, 512, 512], 5 << 20)
-            .unwrap_err()
-            .to_string();
-        assert!(
-            err.contains("need 512.0 MiB") && err.contains("budget of 5.0 MiB"),
-            "{err}"
-        );
-        let err = check_budget([4096; 3], 2 << 30).unwrap_err().to_string();
-        assert!(
-            err.contains("256.0 GiB") && err.contains("2.0 GiB"),
-            "{err}"
-        );
-    }
 
     fn ramp() -> Volume {
         // v = 2x + 3y - z, linear, so trilinear sampling and central differences are exact.
@@ -436,12 +387,5 @@ mod tests {
             vec![0.0; 8],
         );
         assert!(sp.unwrap_err().to_string().contains("spacing"));
-    }
-
-    #[test]
-    fn budget_is_checked_before_allocating() {
-        let err = check_budget([100_000, 100_000, 100_000], DEFAULT_MEMORY_BUDGET).unwrap_err();
-        assert!(err.to_string().contains("memory budget"), "{err}");
-        assert!(check_budget([usize::MAX, 2, 2], DEFAULT_MEMORY_BUDGET).is_err());
     }
 }

@@ -325,10 +325,10 @@ result["groups"] = len(bpy.data.node_groups)
         assert "short.raw" in short and "100 bytes" in short and "262144" in short, short
         huge = outcomes[f"{op} huge"]  # the core's message, and the panel's setting
         assert "huge.nrrd" in huge and "4096x4096x4096 need 256.0 GiB as f32" in huge, huge
-        assert "over the memory budget of 2.0 GiB" in huge, huge
+        assert "more than the 2.0 GiB available" in huge, huge
         assert "Memory budget in the Occlux panel: 2048 MB" in huge, huge
     budget = outcomes["budget"]
-    assert "tooth.nrrd" in budget and "over the memory budget" in budget, budget
+    assert "tooth.nrrd" in budget and "available (volume.memory_budget_gib)" in budget, budget
     assert "Memory budget in the Occlux panel: 5 MB" in budget, budget
     labels = {"compute_ao": "Compute AO", "render_dos": "Render DOS"}
     for op, label in {**labels, "check_cycles": "Check Against Cycles"}.items():
@@ -1311,7 +1311,7 @@ result["sides"] = mask_sides(obj)
     )
     for op, message in result["refused"].items():
         assert "scan.raw" in message and "128x128x64" in message, (op, message)
-        assert "over the memory budget" in message, (op, message)
+        assert "available (volume.memory_budget_gib)" in message, (op, message)
         assert "Memory budget in the Occlux panel: 1 MB" in message, (op, message)
     assert result["unchanged"] and result["written"] == [], output
     assert result["loaded"] == ["FINISHED"], output

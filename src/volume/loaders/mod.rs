@@ -24,8 +24,9 @@ mod raw;
 mod vdb;
 mod vdb_sizes;
 
-use super::{Volume, DEFAULT_MEMORY_BUDGET};
+use super::Volume;
 use crate::error::{Error, Result};
+use crate::memory::MemoryBudget;
 use flate2::bufread::GzDecoder;
 pub use frame::Frame;
 use frame::Placement;
@@ -160,8 +161,9 @@ pub struct RawSpec {
 /// Options common to all loaders.
 #[derive(Clone, Debug, PartialEq)]
 pub struct LoadOptions {
-    /// Largest volume to allocate, in bytes of f32 values. Default [`DEFAULT_MEMORY_BUDGET`].
-    pub memory_budget: u64,
+    /// The memory the volume may take, and what the command holds besides it. Default: the
+    /// system's available memory, for the volume alone ([`MemoryBudget::default`]).
+    pub memory: MemoryBudget,
     /// Policy for NaN and infinite values. Default [`NonFinite::Reject`].
     pub non_finite: NonFinite,
     /// Layout of a `.raw` file (required for `.raw`, ignored otherwise).
@@ -176,7 +178,7 @@ pub struct LoadOptions {
 impl Default for LoadOptions {
     fn default() -> Self {
         Self {
-            memory_budget: DEFAULT_MEMORY_BUDGET,
+            memory: MemoryBudget::default(),
             non_finite: NonFinite::Reject,
             raw: None,
             grid: None,
@@ -351,7 +353,7 @@ impl Layout {
         big_endian: bool,
         opts: &LoadOptions,
     ) -> Result<Self> {
-        let count = super::check_budget(dims, opts.memory_budget).map_err(|e| in_file(path, e))?;
+        let count = opts.memory.check(dims).map_err(|e| in_file(path, e))?;
         let byte_len = count.checked_mul(scalar.size()).ok_or_else(|| {
             Error::format(
                 path,
@@ -609,18 +611,13 @@ fn finish(
 ) -> Result<(Volume, NonFiniteVoxels)> {
     let census = apply_non_finite(path, dims, &mut values, opts.non_finite)?;
     let world_dims = placement.world_dims(dims);
-    let bytes = world_dims.iter().map(|&n| n as u128).product::<u128>() * 4;
-    if bytes > opts.memory_budget as u128 {
-        return Err(Error::format(
-            path,
-            format!(
-                "{}: the world-aligned grid of {world_dims:?} voxels needs {} MiB, over the \
-                 memory budget of {} MiB",
-                placement.frame(),
-                bytes >> 20,
-                opts.memory_budget >> 20
-            ),
-        ));
+    if world_dims != dims {
+        opts.memory.check(world_dims).map_err(|e| {
+            Error::format(
+                path,
+                format!("{}: the world-aligned grid: {e}", placement.frame()),
+            )
+        })?;
     }
     let values = placement.apply(dims, values);
     let volume = Volume::new(world_dims, placement.spacing, placement.origin, values)

@@ -22,7 +22,7 @@ use super::{
 };
 use crate::error::{Error, Result};
 use crate::export::vdb::{BOX_MAX, BOX_MIN};
-use crate::volume::{check_budget, Volume};
+use crate::volume::Volume;
 use glam::{DVec3, IVec3, Vec3};
 use std::fs::File;
 use std::io::{BufReader, Read};
@@ -179,8 +179,10 @@ fn densify(path: &Path, grid: &Grid<f32>, opts: &LoadOptions) -> Result<(Volume,
     }
     let size = (hi - lo + IVec3::ONE).as_i64vec3();
     let dims = [size.x as usize, size.y as usize, size.z as usize];
-    let count =
-        check_budget(dims, opts.memory_budget).map_err(|e| Error::format(path, e.to_string()))?;
+    let count = opts
+        .memory
+        .check(dims)
+        .map_err(|e| Error::format(path, e.to_string()))?;
     let mut values = vec![0.0f32; count];
     for (corner, value, level) in grid.iter() {
         // The item's voxels within [lo, hi], relative to lo.
