@@ -1153,6 +1153,35 @@ fn bench_on_phantoms_times_every_method_device_and_size_and_names_the_gpu() {
     }
 }
 
+/// `--methods` times the cases it names and gradient DVR, the ratios' baseline, and no others.
+#[test]
+fn bench_times_only_the_methods_named_and_the_baseline() {
+    let out = tempfile::tempdir().unwrap();
+    let json = out.path().join("bench.json");
+    let report = succeeds_with_report(
+        &[
+            "bench",
+            "--volume-sizes",
+            "12",
+            "--sizes",
+            "8",
+            "--repeats",
+            "1",
+            "--device",
+            "cpu",
+            "--methods",
+            "dos-n5,ipsvi",
+            "--json",
+            json.to_str().unwrap(),
+        ],
+        &json,
+    );
+    let rows = report["rows"].as_array().unwrap();
+    let methods: Vec<&str> = rows.iter().map(|r| r["method"].as_str().unwrap()).collect();
+    assert_eq!(methods, ["gradient", "dos-n5", "ipsvi"]);
+    assert_eq!(rows[0]["ratio_to_gradient"], 1.0);
+}
+
 #[test]
 fn bench_refuses_bad_options_by_name_before_timing_anything() {
     let out = tempfile::tempdir().unwrap();
@@ -1167,6 +1196,7 @@ fn bench_refuses_bad_options_by_name_before_timing_anything() {
         (vec!["--case-seconds", "0"], "--case-seconds"),
         (vec!["--case-seconds", "nan"], "--case-seconds"),
         (vec!["--device", "tpu"], "--device"),
+        (vec!["--methods", "ipsvi,dvr"], "--methods"),
         (
             vec!["--volume", "x.nrrd", "--volume-sizes", "64"],
             "--volume",

@@ -53,6 +53,10 @@ pub struct BenchArgs {
     /// Square image sides to time.
     #[arg(long, value_delimiter = ',', default_value = "256,512")]
     pub sizes: Vec<u32>,
+    /// Only these cases (unshaded, gradient, ao, dos-n2, dos-n5, dos-n13, ipsvi, half-angle);
+    /// gradient DVR is timed whatever the list, as the ratios' baseline. Unset: every case.
+    #[arg(long, value_delimiter = ',')]
+    pub methods: Option<Vec<String>>,
     /// Timed repeats per case (after one warm-up render); the median is reported.
     #[arg(long, default_value_t = 5)]
     pub repeats: usize,
@@ -122,6 +126,29 @@ pub struct BenchRow {
 
 /// DOS grids timed.
 const DOS_GRIDS: [u32; 3] = [2, 5, 13];
+
+/// The cases `--methods` names (with gradient DVR, the baseline), or all of them; an unknown
+/// name is an error that lists the cases.
+fn chosen_cases(methods: Option<&[String]>) -> Result<Vec<(String, Method)>> {
+    let all = cases()?;
+    let Some(names) = methods else {
+        return Ok(all);
+    };
+    if let Some(unknown) = names
+        .iter()
+        .find(|name| !all.iter().any(|(label, _)| label == *name))
+    {
+        let known: Vec<&str> = all.iter().map(|(label, _)| label.as_str()).collect();
+        return Err(Error::param(
+            "--methods",
+            format!("unknown case '{unknown}'; known: {}", known.join(", ")),
+        ));
+    }
+    Ok(all
+        .into_iter()
+        .filter(|(label, _)| label == "gradient" || names.contains(label))
+        .collect())
+}
 
 /// The timed cases, in the registry's order: every registered method at its defaults, DOS at
 /// each of [`DOS_GRIDS`] (named `dos-nN`).
@@ -303,7 +330,7 @@ fn scenes(args: &BenchArgs) -> Result<Vec<Scene>> {
 /// Runs the benchmark, prints the table unless `quiet`, and writes the JSON.
 pub fn run(args: &BenchArgs, quiet: bool) -> Result<()> {
     check(args)?;
-    let cases = cases()?;
+    let cases = chosen_cases(args.methods.as_deref())?;
     let scenes = scenes(args)?;
     let devices = devices(args.device, quiet)?;
     let mut rows = vec![];
