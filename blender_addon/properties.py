@@ -209,8 +209,9 @@ class OccluxSettings(bpy.types.PropertyGroup):
     )
     memory_budget_mb: IntProperty(
         name="Memory budget (MB)",
-        description="Refuse volumes whose float32 copy (voxels x 4 bytes, from the file's "
-        "header) is larger, before loading them",
+        description="Refuse a volume, before loading it, when the work's peak memory (its "
+        "float32 copy, voxels x 4 bytes from the file's header, times what the method holds "
+        "besides) is larger; the memory the system has is checked too",
         min=1,
         default=2048,
     )

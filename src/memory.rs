@@ -41,6 +41,8 @@ pub struct MemoryBudget {
     pub limit: MemoryLimit,
     /// The command's peak memory as a multiple of its dense f32 volume (1: the volume alone).
     pub volumes: f64,
+    /// Bytes the command holds besides, whatever the volume's size (an image's layers).
+    pub fixed_bytes: u64,
     /// What holds that peak, for messages ("loading the volume", "ao --method sweep").
     pub holder: String,
 }
@@ -51,15 +53,18 @@ impl Default for MemoryBudget {
         Self {
             limit: MemoryLimit::System,
             volumes: 1.0,
+            fixed_bytes: 0,
             holder: "loading the volume".to_owned(),
         }
     }
 }
 
 impl MemoryBudget {
-    /// The same limit for a command that holds `volumes` dense f32 volumes at its peak.
-    pub fn holding(mut self, volumes: f64, holder: impl Into<String>) -> Self {
+    /// The same limit for a command that holds `volumes` dense f32 volumes and `fixed_bytes`
+    /// besides at its peak.
+    pub fn holding(mut self, volumes: f64, fixed_bytes: u64, holder: impl Into<String>) -> Self {
         self.volumes = volumes.max(1.0);
+        self.fixed_bytes = fixed_bytes;
         self.holder = holder.into();
         self
     }
@@ -69,12 +74,16 @@ impl MemoryBudget {
     pub fn check(&self, dims: [usize; 3]) -> Result<usize> {
         let count = crate::volume::voxel_count(dims)?;
         let volume = count as f64 * 4.0;
-        let need = volume * self.volumes;
+        let need = volume * self.volumes + self.fixed_bytes as f64;
         let (available, source) = self.limit.read();
         if need > available as f64 {
-            let holds = if self.volumes > 1.0 {
+            let besides = match self.fixed_bytes {
+                0 => String::new(),
+                bytes => format!(" and {} besides", size_text(bytes as f64)),
+            };
+            let holds = if need > volume {
                 format!(
-                    "; {} holds about {:.1} such volumes at its peak, {} in all",
+                    "; {} holds about {:.1} such volumes{besides} at its peak, {} in all",
                     self.holder,
                     self.volumes,
                     size_text(need)
@@ -222,11 +231,19 @@ mod tests {
                 && err.contains("5.0 MiB available (a test's cap)"),
             "{err}"
         );
-        let sweep = budget.clone().holding(2.5, "ao --method sweep");
+        let sweep = budget.clone().holding(2.5, 0, "ao --method sweep");
         assert!(sweep.check([64, 64, 64]).is_ok()); // 2.5 MiB of 5
         let err = sweep.check([96, 96, 96]).unwrap_err().to_string();
         assert!(
             err.contains("ao --method sweep holds about 2.5 such volumes at its peak, 8.4 MiB"),
+            "{err}"
+        );
+        let render = budget.clone().holding(1.2, 4 << 20, "a render");
+        let err = render.check([64, 64, 64]).unwrap_err().to_string();
+        assert!(
+            err.contains(
+                "a render holds about 1.2 such volumes and 4.0 MiB besides at its peak, 5.2 MiB"
+            ),
             "{err}"
         );
         assert!(budget.check([usize::MAX, 2, 2]).is_err());

@@ -269,10 +269,11 @@ pub trait RenderMethod: Clone + Debug + PartialEq + Default + Serialize + Deseri
     }
 }
 
-/// The peak of a render that keeps no grid of its own beside the volume: the volume, the
-/// occupancy and majorant grids (a small fraction of it) and the image (measured by
-/// `bench/memory.sh`: 1.02-1.05x at 512^3, so this holds a margin for the image at 4096^2).
-pub const RENDER_PEAK_VOLUMES: f64 = 1.2;
+/// The peak of a render that keeps no grid of its own beside the volume: the volume and the
+/// occupancy and majorant grids, a small fraction of it (`bench/memory.sh`: 1.18x at 512^3
+/// with a 1024^2 image, 0.15x of which is the image, counted apart by
+/// [`crate::scene::IMAGE_BYTES_PER_PIXEL`]).
+pub const RENDER_PEAK_VOLUMES: f64 = 1.1;
 
 /// A path-traced model a method approximates (see [`RenderMethod::model`]).
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -57,6 +57,10 @@ use serde::{Deserialize, Serialize};
 use serde_json::{json, Map, Value};
 use std::path::{Path, PathBuf};
 
+/// What a render holds per pixel at its peak besides the volume: the image's layers in f32 and
+/// their encoding into files (`bench/memory.sh`: about 75 MiB at 1024^2 over the volume).
+pub const IMAGE_BYTES_PER_PIXEL: u64 = 80;
+
 /// A scene ready to run: every field validated. What depends on the data (a framed camera, a
 /// content centre, a robust window, Hounsfield presets) is settled by [`Scene::load`].
 #[derive(Clone, Debug, PartialEq)]
@@ -199,7 +203,7 @@ impl Scene {
     /// [`Scene::load_volume`] for a command other than the scene's render, which holds
     /// `volumes` dense f32 volumes at its peak (`holder` names it in a refusal).
     pub fn load_volume_holding(&self, volumes: f64, holder: &str) -> Result<Volume> {
-        Ok(self.load_holding(volumes, holder)?.volume)
+        Ok(self.load_holding(volumes, 0, holder)?.volume)
     }
 
     /// Loads (or generates) the volume, places it in the world, and settles what depends on
@@ -209,12 +213,14 @@ impl Scene {
     /// refused before its voxels are read ([`Scene::peak_volumes`]).
     pub fn load(&self) -> Result<Loaded> {
         let holder = format!("method = \"{}\"", self.method.spec().name);
-        self.load_holding(self.peak_volumes(), &holder)
+        let pixels = u64::from(self.camera.width) * u64::from(self.camera.height);
+        self.load_holding(self.peak_volumes(), pixels * IMAGE_BYTES_PER_PIXEL, &holder)
     }
 
-    /// [`Scene::load`] for a command that holds `volumes` dense f32 volumes at its peak.
-    pub fn load_holding(&self, volumes: f64, holder: &str) -> Result<Loaded> {
-        let (volume, hounsfield) = self.load_placed(volumes, holder)?;
+    /// [`Scene::load`] for a command that holds `volumes` dense f32 volumes and `fixed_bytes`
+    /// besides at its peak.
+    pub fn load_holding(&self, volumes: f64, fixed_bytes: u64, holder: &str) -> Result<Loaded> {
+        let (volume, hounsfield) = self.load_placed(volumes, fixed_bytes, holder)?;
         crate::framing::settle(self, volume, hounsfield.as_deref())
     }
 
@@ -234,9 +240,18 @@ impl Scene {
 
     /// The volume scaled by `fit` and moved to a `centre` point, and why its values are HU
     /// when its file says so; the memory checked for a command holding `volumes` of it.
-    fn load_placed(&self, volumes: f64, holder: &str) -> Result<(Volume, Option<String>)> {
+    fn load_placed(
+        &self,
+        volumes: f64,
+        fixed_bytes: u64,
+        holder: &str,
+    ) -> Result<(Volume, Option<String>)> {
         let src = &self.volume;
-        let memory = src.options.memory.clone().holding(volumes, holder);
+        let memory = src
+            .options
+            .memory
+            .clone()
+            .holding(volumes, fixed_bytes, holder);
         let (mut volume, hounsfield) = match &src.kind {
             SourceKind::File(path) => {
                 let options = LoadOptions {
