@@ -309,3 +309,30 @@ fn sdf_iteration_limit_and_cancel_are_reported() {
         Err(Error::Cancelled)
     ));
 }
+
+#[test]
+fn sdf_is_the_same_bytes_with_any_number_of_threads() {
+    // The rows of a wavefront run in parallel but each reads only rows no other one writes:
+    // the distances, and the rounds they took, cannot depend on how many threads there are.
+    let v = phantom::ct(40).unwrap();
+    let on = |threads: usize| {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap();
+        pool.install(|| signed_distance(&v, &params(0.25), &NoProgress).unwrap())
+    };
+    let bits = |r: &SdfResult| {
+        r.sdf
+            .values()
+            .iter()
+            .map(|d| d.to_bits())
+            .collect::<Vec<_>>()
+    };
+    let one = on(1);
+    for threads in [2, 3, 8] {
+        let r = on(threads);
+        assert_eq!(r.iterations, one.iterations, "{threads} threads");
+        assert!(bits(&r) == bits(&one), "{threads} threads");
+    }
+}

@@ -27,11 +27,19 @@
 //! 5. AO^(1 / gamma) as a post-process (gamma 2 by default, the paper's choice to brighten the
 //!    sweep's darkening).
 //!
-//! Twins: the signed distance on the CPU (rows, its eight orders shared between two teams) or the
-//! GPU (src/ao/sweep/sdf/sweep_sdf.wgsl, plane by plane); the surface terms on the CPU; the octants and
-//! the shading on [`cpu`] (two parallel groups of four octants) or [`gpu`]
+//! Twins: the signed distance on the CPU (rows by wavefronts) or the GPU
+//! (src/ao/sweep/sdf/sweep_sdf.wgsl, plane by plane); the surface terms on the CPU
+//! ([`SurfaceTerms`]); the octants and the shading on [`cpu`] (plane by plane, the four
+//! octants of a z direction in lockstep, the surface terms made a plane at a time) or [`gpu`]
 //! (src/ao/sweep/physical/sweep.wgsl, the physical mode's plane kernel with the paper's terms,
-//! then `sweep_shade`); they agree within the tolerances of tests/sweep_twins.rs.
+//! then `sweep_shade`, over the whole grid's [`Surface`]); they agree within the tolerances of
+//! tests/sweep_twins.rs.
+//!
+//! Memory on the CPU ([`occlusion_from`] with an owned field): the field and the padded
+//! distances while the signed distance is made, then the distance and the AO, a few planes
+//! beside them: about twice the field. `keep_octants` adds the eight V_s it asks for (8 grids
+//! more). The GPU path builds the whole [`Surface`] on the host (its transmittance and three
+//! words a voxel), which the CPU path does not.
 //!
 //! The three-neighbour average follows the octant's diagonal and blurs directions (the paper's
 //! diagonal streaks); the physical mode ([`super::physical`]) uses seven neighbours and real
@@ -51,6 +59,7 @@ use crate::progress::{NoProgress, Progress};
 use crate::volume::Volume;
 use glam::Vec3;
 use rayon::prelude::*;
+use std::borrow::Cow;
 
 /// The four octants that look up +z (world up): the paper's "cloudy day" sky.
 pub const SKY: [f32; 8] = [1.0, 1.0, 1.0, 1.0, 0.0, 0.0, 0.0, 0.0];
@@ -144,8 +153,8 @@ pub struct Occlusion {
 }
 
 /// The geometric occlusion of the `surface.iso` surface of `field` (its signed distance by
-/// `surface`) on `compute` (the surface terms on the CPU). `progress` counts the octants (planes on
-/// the GPU); `keep_octants` also returns each V_s.
+/// `surface`) on `compute` (the surface terms on the CPU). `progress` counts planes; `keep_octants`
+/// also returns each V_s.
 pub fn occlusion(
     compute: &Compute,
     field: &Volume,
@@ -154,8 +163,31 @@ pub fn occlusion(
     keep_octants: bool,
     progress: &dyn Progress,
 ) -> Result<Occlusion> {
+    occlusion_from(
+        compute,
+        Cow::Borrowed(field),
+        surface,
+        params,
+        keep_octants,
+        progress,
+    )
+}
+
+/// [`occlusion`] of a field that may be given away: an owned `field` is dropped once its signed
+/// distance is made, so that the octants' peak holds the distance and the AO, not the field
+/// beside them. On the CPU the peak is then the field and the padded distances during the
+/// signed distance, the distance and the AO after it (and the eight V_s with `keep_octants`).
+pub fn occlusion_from(
+    compute: &Compute,
+    field: Cow<'_, Volume>,
+    surface: &SdfParams,
+    params: &GeometricParams,
+    keep_octants: bool,
+    progress: &dyn Progress,
+) -> Result<Occlusion> {
     params.validate()?;
-    let sdf = signed_distance_on(compute, field, surface, &NoProgress)?;
+    let sdf = signed_distance_on(compute, &field, surface, &NoProgress)?;
+    drop(field);
     if progress.cancelled() {
         return Err(Error::Cancelled);
     }
@@ -164,25 +196,29 @@ pub fn occlusion(
     } else {
         GeometryTable::hemisphere()
     };
-    let surface = surface_terms(&sdf.sdf, table, params);
+    let terms = SurfaceTerms::new(&sdf.sdf, table, params);
     let (ao, octants) = match compute {
-        Compute::Cpu => cpu::octants(&surface, params, keep_octants, progress)?,
-        Compute::Gpu(ctx) => gpu::octants(ctx, &surface, params, keep_octants, progress)?,
+        Compute::Cpu => cpu::octants(&terms, params, keep_octants, progress)?,
+        Compute::Gpu(ctx) => {
+            gpu::octants(ctx, &Surface::new(&terms), params, keep_octants, progress)?
+        }
     };
-    let grid = |values| Volume::new(field.dims(), field.spacing(), field.origin(), values);
+    let d = &sdf.sdf;
+    let grid = |values| Volume::new(d.dims(), d.spacing(), d.origin(), values);
     Ok(Occlusion {
         ao: grid(ao)?,
-        sdf,
         octants: if keep_octants {
             Some(octants.into_iter().map(grid).collect::<Result<_>>()?)
         } else {
             None
         },
+        sdf,
     })
 }
 
-/// What the octant sweeps read: the transmittance from distance, each voxel's surface terms and
-/// the geometry table they index.
+/// What the GPU's octant sweeps read: the transmittance from distance, each voxel's surface
+/// terms and the geometry table they index, for the whole grid at once (the CPU makes them a
+/// plane at a time, [`SurfaceTerms::plane`]).
 pub struct Surface {
     /// Eq. 7 and 8, padded with 1.
     pub transmittance: Padded,
@@ -190,70 +226,110 @@ pub struct Surface {
     pub table: &'static GeometryTable,
 }
 
-/// Per voxel, where its normal falls in `table` (the normal: the signed distance's gradient by
-/// central differences, one-sided at the grid's faces; none where the gradient vanishes, a
-/// kink such as a ball's centre, or with the combined scalar AO), and the transmittance from
-/// distance (Eq. 7 and 8).
-fn surface_terms(sdf: &Volume, table: &'static GeometryTable, params: &GeometricParams) -> Surface {
-    let [nx, ny, nz] = sdf.dims();
-    let h = sdf.spacing();
-    let d = sdf.values();
-    let mut cells = vec![Cell::NONE; nx * ny * nz];
-    let mut transmittance = Padded::new(sdf.dims(), 1.0);
-    let plane = nx * ny;
-    let padded_plane = (nx + 2) * (ny + 2);
-    let (px, py) = ((nx + 2) as i32, (ny + 2) as i32);
-    // Planes in parallel: each voxel's cell, and its transmittance straight into the padded
-    // grid (whose first plane is padding).
-    cells
-        .par_chunks_mut(plane)
-        .zip(transmittance.values.par_chunks_mut(padded_plane).skip(1))
-        .enumerate()
-        .for_each(|(k, (cells, tau))| {
-            // The neighbours' indices and the steps between them along an axis: central
-            // differences, one-sided at the grid's faces.
-            let span = |at: usize, n: usize, stride: usize, index: usize| {
-                let (below, above) = (at > 0, at + 1 < n);
-                let lo = if below { index - stride } else { index };
-                let hi = if above { index + stride } else { index };
-                (lo, hi, (below as u32 + above as u32) as f32)
-            };
-            for j in 0..ny {
-                let padded_row = 1 + (nx + 2) * (j + 1);
-                for i in 0..nx {
-                    let index = i + nx * (j + ny * k);
-                    let mut g = Vec3::ZERO;
-                    for (axis, (at, n, stride)) in [(i, nx, 1), (j, ny, nx), (k, nz, plane)]
-                        .into_iter()
-                        .enumerate()
-                    {
-                        let (lo, hi, steps) = span(at, n, stride, index);
-                        if steps > 0.0 {
-                            g[axis] = (d[hi] - d[lo]) / (steps * h[axis]);
-                        }
-                    }
-                    let normal = g.try_normalize();
-                    // The voxel's width along the normal; without one, the mean spacing.
-                    let width = normal.map_or(h.element_sum() / 3.0, |n| n.abs().dot(h));
-                    let t = (d[index] / width + 0.5).clamp(0.0, 1.0);
-                    tau[padded_row + i] = 1.0 - (1.0 - t) * params.alpha;
-                    let mut cell = match normal {
-                        Some(n) if params.normal_weighted => table.cell(n),
-                        _ => Cell::NONE,
-                    };
-                    if let Some(n) = normal {
-                        // The lattice neighbour nearest to one voxel out along the normal.
-                        let o = (n / h * h.min_element()).round();
-                        cell.step = o.x as i32 + px * (o.y as i32 + py * o.z as i32);
-                    }
-                    cells[i + nx * j] = cell;
+impl Surface {
+    /// The terms of every plane.
+    pub fn new(terms: &SurfaceTerms) -> Self {
+        let dims = terms.sdf.dims();
+        let [nx, ny, nz] = dims;
+        let mut cells = vec![Cell::NONE; nx * ny * nz];
+        let mut transmittance = Padded::new(dims, 1.0);
+        // The padded grid's first plane is padding.
+        cells
+            .par_chunks_mut(nx * ny)
+            .zip(
+                transmittance
+                    .values
+                    .par_chunks_mut((nx + 2) * (ny + 2))
+                    .skip(1),
+            )
+            .enumerate()
+            .for_each(|(k, (cells, tau))| terms.plane(k, tau, cells));
+        Surface {
+            transmittance,
+            cells,
+            table: terms.table,
+        }
+    }
+}
+
+/// The surface terms of a signed distance, voxel by voxel: where its normal falls in `table`
+/// (the normal: the signed distance's gradient by central differences, one-sided at the grid's
+/// faces; none where the gradient vanishes, a kink such as a ball's centre, or with the
+/// combined scalar AO), the padded-grid step to the voxel its octants are read at, and the
+/// transmittance from distance (Eq. 7 and 8).
+pub struct SurfaceTerms<'a> {
+    sdf: &'a Volume,
+    pub table: &'static GeometryTable,
+    alpha: f32,
+    normal_weighted: bool,
+}
+
+impl<'a> SurfaceTerms<'a> {
+    pub fn new(sdf: &'a Volume, table: &'static GeometryTable, params: &GeometricParams) -> Self {
+        Self {
+            sdf,
+            table,
+            alpha: params.alpha,
+            normal_weighted: params.normal_weighted,
+        }
+    }
+
+    /// The grid's dimensions.
+    pub fn dims(&self) -> [usize; 3] {
+        self.sdf.dims()
+    }
+
+    /// Plane `k`'s terms: its transmittance into the padded plane `tau` (whose border is left
+    /// as it is) and its cells (x fastest), rows in parallel.
+    pub fn plane(&self, k: usize, tau: &mut [f32], cells: &mut [Cell]) {
+        let [nx, _, _] = self.dims();
+        cells
+            .par_chunks_mut(nx)
+            .zip(tau[nx + 2..].par_chunks_mut(nx + 2))
+            .enumerate()
+            .for_each(|(j, (cells, tau))| {
+                for (i, (cell, tau)) in cells.iter_mut().zip(&mut tau[1..]).enumerate() {
+                    (*tau, *cell) = self.voxel(i, j, k);
                 }
+            });
+    }
+
+    /// Voxel (i, j, k)'s transmittance and cell.
+    fn voxel(&self, i: usize, j: usize, k: usize) -> (f32, Cell) {
+        let [nx, ny, nz] = self.dims();
+        let h = self.sdf.spacing();
+        let d = self.sdf.values();
+        let index = i + nx * (j + ny * k);
+        let mut g = Vec3::ZERO;
+        for (axis, (at, n, stride)) in [(i, nx, 1), (j, ny, nx), (k, nz, nx * ny)]
+            .into_iter()
+            .enumerate()
+        {
+            // Central differences, one-sided at the grid's faces.
+            let (below, above) = (at > 0, at + 1 < n);
+            let lo = if below { index - stride } else { index };
+            let hi = if above { index + stride } else { index };
+            let steps = (below as u32 + above as u32) as f32;
+            if steps > 0.0 {
+                g[axis] = (d[hi] - d[lo]) / (steps * h[axis]);
             }
-        });
-    Surface {
-        transmittance,
-        cells,
-        table,
+        }
+        let normal = g.try_normalize();
+        // The voxel's width along the normal; without one, the mean spacing.
+        let width = normal.map_or(h.element_sum() / 3.0, |n| n.abs().dot(h));
+        let t = (d[index] / width + 0.5).clamp(0.0, 1.0);
+        let tau = 1.0 - (1.0 - t) * self.alpha;
+        let mut cell = match normal {
+            Some(n) if self.normal_weighted => self.table.cell(n),
+            _ => Cell::NONE,
+        };
+        if let Some(n) = normal {
+            // The lattice neighbour nearest to one voxel out along the normal.
+            let o = (n / h * h.min_element()).round();
+            let (px, py) = ((nx + 2) as i32, (ny + 2) as i32);
+            cell.step = o.x as i32 + px * (o.y as i32 + py * o.z as i32);
+        }
+        (tau, cell)
     }
 }
 

@@ -1,12 +1,13 @@
 //! The signed distance on the CPU: rounds of Gauss-Seidel sweeps in the eight orders (the
 //! method and its accuracy: [`super`]).
 
-use super::{finish, start, Grid, Rounds, SdfParams, SdfResult};
+use super::{finish, start, Bits, Grid, Rounds, SdfParams, SdfResult};
 use crate::error::{Error, Result};
 use crate::progress::Progress;
 use crate::volume::Volume;
 use rayon::prelude::*;
-use std::sync::atomic::{AtomicU64, Ordering};
+use std::marker::PhantomData;
+use std::sync::atomic::{AtomicU64, AtomicU8, Ordering};
 
 /// The signed distance to the `params.iso` surface of `volume`, by fast sweeping on the CPU.
 /// `progress` counts sweeps (eight per round) out of `8 * max_iterations`; cancelling stops
@@ -33,145 +34,215 @@ pub fn signed_distance(
         rounds.record(change);
     }
     progress.update(total, total);
-    finish(volume, params, &grid.u, rounds)
+    finish(volume, params, grid.u, rounds)
 }
 
 impl Grid {
-    /// One round: the eight sweeps, shared between two teams that each sweep four orders on
-    /// their own copy of the distances, merged by the minimum at the end (Zhao's parallel fast
-    /// sweeping, 2007: the same fixed point, sometimes a round more). Two teams whatever the
-    /// number of threads, so the result is the same bytes with any (the teams' update orders
-    /// decide the last bits of the fixed point they reach). Returns the largest decrease of
-    /// any voxel; `step` runs after every sweep (progress, cancelling).
+    /// One round: the eight sweeps in order. Returns the largest decrease of any voxel; `step`
+    /// runs after every sweep (progress, cancelling).
     fn round(
         &mut self,
         h: [f32; 3],
         w: [f32; 3],
         round: u32,
-        step: &(dyn Fn() -> Result<()> + Sync),
+        step: &dyn Fn() -> Result<()>,
     ) -> Result<f32> {
-        let dims = self.dims;
-        let fixed = &self.fixed;
-        let run = |orders: std::ops::Range<usize>, u: &mut [f32], changed: &mut [u8]| {
-            let mut change = 0.0f32;
-            for order in orders {
-                let signs = [order & 1 == 0, order & 2 == 0, order & 4 == 0];
-                change = change.max(sweep(dims, fixed, u, changed, signs, h, w, round));
-                step()?;
-            }
-            Ok::<f32, Error>(change)
-        };
-        let (mut u, mut changed) = (self.u.clone(), self.changed.clone());
-        let (first, second) = rayon::join(
-            || run(0..4, &mut self.u, &mut self.changed),
-            || run(4..8, &mut u, &mut changed),
-        );
-        let change = first?.max(second?);
-        self.u
-            .par_iter_mut()
-            .zip(&u)
-            .for_each(|(mine, theirs)| *mine = mine.min(*theirs));
-        for (mine, theirs) in self.changed.iter_mut().zip(&changed) {
-            *mine = (*mine).max(*theirs);
+        let mut change = 0.0f32;
+        for order in 0..8 {
+            let ascending = [order & 1 == 0, order & 2 == 0, order & 4 == 0];
+            change = change.max(self.sweep(ascending, h, w, round));
+            step()?;
         }
         Ok(change)
     }
+
+    /// One Gauss-Seidel sweep of round `round`, each axis ascending where `ascending` says;
+    /// returns the largest decrease of any voxel (infinite where a voxel got its first value).
+    ///
+    /// The rows (j, k) go by wavefronts of equal jj + kk (jj, kk: their places in the sweep's
+    /// order), a wavefront's rows in parallel. A row reads its own and the four neighbouring
+    /// rows; those lie on the wavefronts just before (done, as in the one-threaded order) and
+    /// just after (not yet started, likewise), never on its own: no row of a wavefront reads
+    /// what another writes, and each computes what it would one-threaded.
+    fn sweep(&mut self, ascending: [bool; 3], h: [f32; 3], w: [f32; 3], round: u32) -> f32 {
+        let [nx, ny, nz] = self.dims;
+        let place = |at: usize, n: usize, up: bool| if up { at } else { n - 1 - at };
+        let rows = Rows::new(&mut self.u);
+        let sweep = RowSweep {
+            nx,
+            rows_y: ny + 2,
+            fixed: &self.fixed,
+            changed: &self.changed,
+            h,
+            w,
+            round,
+            ascending: ascending[0],
+        };
+        let mut change = 0.0f32;
+        for front in 0..ny + nz - 1 {
+            let first = front.saturating_sub(ny - 1);
+            let last = front.min(nz - 1);
+            let front_change = (first..=last)
+                .into_par_iter()
+                .map_init(
+                    || Scratch::new(nx),
+                    |scratch, kk| {
+                        let j = place(front - kk, ny, ascending[1]);
+                        let k = place(kk, nz, ascending[2]);
+                        // SAFETY: see `Rows`: the rows of one wavefront are apart.
+                        unsafe { sweep.row(&rows, j, k, scratch) }
+                    },
+                )
+                .reduce(|| 0.0, f32::max);
+            change = change.max(front_change);
+        }
+        change
+    }
 }
 
-/// One Gauss-Seidel sweep of round `round` over `u` (a grid's padded distances, with its
-/// `changed` stamps), each axis ascending where its sign is true; returns the largest decrease
-/// of any voxel (infinite where a voxel got its first value).
-///
-/// Along a row each voxel reads the one just updated, a chain of dependent solves that
-/// would bound the speed. So the row is done in two passes: first, independently per voxel
-/// (a loop the core overlaps), the solution v from the y and z neighbours alone; then, in
-/// order, the x neighbour a_x is taken in only where a_x < v. That is exact: Godunov's
-/// update uses only neighbours below the solution, so where a_x >= v, v solves the full
-/// update too.
-#[allow(clippy::too_many_arguments)] // the grid's parts and the sweep's order
-fn sweep(
-    dims: [usize; 3],
-    fixed: &[bool],
-    u: &mut [f32],
-    changed: &mut [u8],
-    ascending: [bool; 3],
+/// The padded distances, shared by the rows of a wavefront: each writes its own row (with its
+/// two padding voxels) and reads the four rows beside it, which no row of its wavefront writes.
+struct Rows<'a> {
+    values: *mut f32,
+    len: usize,
+    _borrow: PhantomData<&'a mut [f32]>,
+}
+
+// SAFETY: access goes through `read` and `write`, whose callers keep what one thread writes
+// apart from what the others read or write.
+unsafe impl Sync for Rows<'_> {}
+
+impl<'a> Rows<'a> {
+    fn new(values: &'a mut [f32]) -> Self {
+        Self {
+            values: values.as_mut_ptr(),
+            len: values.len(),
+            _borrow: PhantomData,
+        }
+    }
+
+    /// `len` values from `start`.
+    ///
+    /// # Safety
+    /// No other thread writes them while the slice lives.
+    unsafe fn read(&self, start: usize, len: usize) -> &[f32] {
+        assert!(start + len <= self.len);
+        std::slice::from_raw_parts(self.values.add(start), len)
+    }
+
+    /// `len` values from `start`, to write.
+    ///
+    /// # Safety
+    /// No other thread reads or writes them while the slice lives.
+    #[allow(clippy::mut_from_ref)] // the point of the type: disjoint rows from shared threads
+    unsafe fn write(&self, start: usize, len: usize) -> &mut [f32] {
+        assert!(start + len <= self.len);
+        std::slice::from_raw_parts_mut(self.values.add(start), len)
+    }
+}
+
+/// A row's working space: its neighbour minima across y and z and the solution from them.
+struct Scratch {
+    ay: Vec<f32>,
+    az: Vec<f32>,
+    across: Vec<f32>,
+}
+
+impl Scratch {
+    fn new(nx: usize) -> Self {
+        Self {
+            ay: vec![0.0; nx],
+            az: vec![0.0; nx],
+            across: vec![0.0; nx],
+        }
+    }
+}
+
+/// What every row of a sweep shares: the grid's layout and marks, the spacing, the round and
+/// the direction along x.
+struct RowSweep<'a> {
+    nx: usize,
+    rows_y: usize,
+    fixed: &'a Bits,
+    changed: &'a [AtomicU8],
     h: [f32; 3],
     w: [f32; 3],
     round: u32,
-) -> f32 {
-    let [nx, ny, nz] = dims;
-    let sy = nx + 2;
-    let sz = sy * (ny + 2);
-    let rows_y = ny + 2;
-    let recent = round.min(u8::MAX as u32) as u8;
-    let stamp = (round + 1).min(u8::MAX as u32) as u8;
-    let mut change = 0.0f32;
-    let mut ay = vec![0.0f32; nx];
-    let mut az = vec![0.0f32; nx];
-    let mut across = vec![0.0f32; nx];
-    for kk in 0..nz {
-        let k = if ascending[2] { kk } else { nz - 1 - kk };
-        for jj in 0..ny {
-            let j = if ascending[1] { jj } else { ny - 1 - jj };
-            let row_at = (j + 1) + rows_y * (k + 1);
-            let neighbours = [
-                row_at,
-                row_at - 1,
-                row_at + 1,
-                row_at - rows_y,
-                row_at + rows_y,
-            ];
-            if round > 0 && neighbours.iter().all(|&r| changed[r] < recent) {
-                continue;
-            }
-            let start = (j + 1) * sy + (k + 1) * sz + 1;
-            // Neighbour minima across y and z, and the solution from them alone: those
-            // rows are not written while this row is swept.
-            {
-                let (below, above) = (&u[start - sy..][..nx], &u[start + sy..][..nx]);
-                for ((a, &p), &q) in ay.iter_mut().zip(below).zip(above) {
-                    *a = p.min(q);
-                }
-                let (below, above) = (&u[start - sz..][..nx], &u[start + sz..][..nx]);
-                for ((a, &p), &q) in az.iter_mut().zip(below).zip(above) {
-                    *a = p.min(q);
-                }
-                for ((v, &b), &c) in across.iter_mut().zip(&ay).zip(&az) {
-                    *v = solve_pair([b, c], [h[1], h[2]], [w[1], w[2]]);
-                }
-            }
-            // Along the row, in order: the x neighbour where it lies below.
-            let row = &mut u[start - 1..start + nx + 1];
-            let fixed = &fixed[start..start + nx];
-            let mut row_change = 0.0f32;
-            let mut visit = |i: usize| {
-                if fixed[i] {
-                    return;
-                }
-                let ax = row[i].min(row[i + 2]);
-                let new = if ax < across[i] {
-                    solve([ax, ay[i], az[i]], h, w)
-                } else {
-                    across[i]
-                };
-                let old = row[i + 1];
-                if new < old {
-                    row[i + 1] = new;
-                    row_change = row_change.max(old - new);
-                }
-            };
-            if ascending[0] {
-                (0..nx).for_each(&mut visit);
-            } else {
-                (0..nx).rev().for_each(&mut visit);
-            }
-            if row_change > 0.0 {
-                changed[row_at] = stamp;
-                change = change.max(row_change);
+    ascending: bool,
+}
+
+impl RowSweep<'_> {
+    /// Sweeps row (j, k) of `rows`; returns its largest decrease.
+    ///
+    /// Along a row each voxel reads the one just updated, a chain of dependent solves that
+    /// would bound the speed. So the row is done in two passes: first, independently per voxel
+    /// (a loop the core overlaps), the solution v from the y and z neighbours alone; then, in
+    /// order, the x neighbour a_x is taken in only where a_x < v. That is exact: Godunov's
+    /// update uses only neighbours below the solution, so where a_x >= v, v solves the full
+    /// update too.
+    ///
+    /// # Safety
+    /// No other thread writes the rows beside (j, k), nor reads or writes row (j, k) itself,
+    /// meanwhile.
+    unsafe fn row(&self, rows: &Rows, j: usize, k: usize, scratch: &mut Scratch) -> f32 {
+        let (nx, h, w) = (self.nx, self.h, self.w);
+        let row_at = (j + 1) + self.rows_y * (k + 1);
+        let neighbours = [
+            row_at,
+            row_at - 1,
+            row_at + 1,
+            row_at - self.rows_y,
+            row_at + self.rows_y,
+        ];
+        let recent = self.round.min(u8::MAX as u32) as u8;
+        let unchanged = |r: usize| self.changed[r].load(Ordering::Relaxed) < recent;
+        if self.round > 0 && neighbours.into_iter().all(unchanged) {
+            return 0.0;
+        }
+        let sy = nx + 2;
+        let sz = sy * self.rows_y;
+        let start = row_at * sy + 1;
+        let Scratch { ay, az, across } = scratch;
+        // Neighbour minima across y and z, and the solution from them alone.
+        for (a, stride) in [(&mut *ay, sy), (&mut *az, sz)] {
+            let (below, above) = (rows.read(start - stride, nx), rows.read(start + stride, nx));
+            for ((a, &p), &q) in a.iter_mut().zip(below).zip(above) {
+                *a = p.min(q);
             }
         }
+        for ((v, &b), &c) in across.iter_mut().zip(&*ay).zip(&*az) {
+            *v = solve_pair([b, c], [h[1], h[2]], [w[1], w[2]]);
+        }
+        // Along the row, in order: the x neighbour where it lies below.
+        let row = rows.write(start - 1, nx + 2);
+        let mut row_change = 0.0f32;
+        let mut visit = |i: usize| {
+            if self.fixed.get(start + i) {
+                return;
+            }
+            let ax = row[i].min(row[i + 2]);
+            let new = if ax < across[i] {
+                solve([ax, ay[i], az[i]], h, w)
+            } else {
+                across[i]
+            };
+            let old = row[i + 1];
+            if new < old {
+                row[i + 1] = new;
+                row_change = row_change.max(old - new);
+            }
+        };
+        if self.ascending {
+            (0..nx).for_each(&mut visit);
+        } else {
+            (0..nx).rev().for_each(&mut visit);
+        }
+        if row_change > 0.0 {
+            let stamp = (self.round + 1).min(u8::MAX as u32) as u8;
+            self.changed[row_at].store(stamp, Ordering::Relaxed);
+        }
+        row_change
     }
-    change
 }
 
 /// Zhao's update from two neighbours (the y and z ones): [`solve`] with the third at infinity.

@@ -71,7 +71,9 @@ pub fn signed_distance(
         .map(|&d| if d.is_finite() { d } else { UNSET })
         .collect();
     let distance = buffer::storage_buffer(ctx, "sdf distances", &start_values)?;
-    let fixed: Vec<u32> = grid.fixed.iter().map(|&f| f as u32).collect();
+    let fixed: Vec<u32> = (0..grid.u.len())
+        .map(|i| grid.fixed.get(i) as u32)
+        .collect();
     let fixed = buffer::storage_buffer(ctx, "sdf fixed voxels", &fixed)?;
     let change = buffer::storage_buffer(ctx, "sdf change", &[0u32])?;
     let bind = shader::bind_group_at(
@@ -120,7 +122,7 @@ pub fn signed_distance(
         .into_iter()
         .map(|d| if d >= UNSET { f32::INFINITY } else { d })
         .collect();
-    finish(volume, params, &u, rounds)
+    finish(volume, params, u, rounds)
 }
 
 #[cfg(test)]

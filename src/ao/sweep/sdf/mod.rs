@@ -33,9 +33,18 @@
 //!
 //! Speed: a row is solved first from its y and z neighbours (independent voxels), then along
 //! x in order, solving again only where the x neighbour lies below; rows whose neighbourhood
-//! did not change since the last round are skipped; the eight orders are shared between two
-//! teams on copies, merged by the minimum (Zhao 2007). `occlux bench-sweep` times it: about
-//! 2.4 s for three rounds of 250^3 on 2 cores (from 8 s single-threaded before).
+//! did not change since the last round are skipped. A sweep runs its rows by wavefronts, the
+//! rows with the same j + k in parallel: a row reads only its own and the four neighbouring
+//! rows, which lie on the wavefronts before and after it, so every row sees exactly what it
+//! sees in a one-threaded sweep, and the result is the same bytes with any number of threads
+//! (the hyperplane ordering of Detrixhe et al. 2013, by rows). `occlux bench-sweep` times it.
+//!
+//! Memory: the padded distances (the size of the input), one bit per voxel for the fixed
+//! ones and a byte per row; the result is made from the distances in place
+//! ([`finish`]), so the peak is the input and one grid beside it. (Before, the eight orders were
+//! shared between two teams, each on its own copy of the distances merged by the minimum,
+//! Zhao 2007: a third grid, and a fixed point that differed from the one-threaded sweep's in
+//! its last bits; tests/sdf.rs holds the same accuracy bounds for both.)
 //!
 //! Twins: [`cpu`] sweeps rows in those orders; [`gpu`] (src/ao/sweep/sdf/sweep_sdf.wgsl) sweeps
 //! the same orders plane by plane. This module checks the input, sets the interface voxels and
@@ -52,6 +61,7 @@ use crate::error::{Error, Result};
 use crate::gpu::Compute;
 use crate::progress::Progress;
 use crate::volume::Volume;
+use std::sync::atomic::AtomicU8;
 
 /// Parameters of the signed distance.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -192,38 +202,41 @@ pub(crate) fn start(volume: &Volume, params: &SdfParams) -> Result<Grid> {
     Ok(grid)
 }
 
-/// The result from the swept distances `u` (padded, unsigned): signed and unpadded. Every
-/// voxel was set in the first round (the grid is connected), but a value that is somehow still
-/// unset is an error, never an infinity in the output.
+/// The result from the swept distances `u` (padded, unsigned): signed and unpadded in place, so
+/// no second grid is held beside them. Every voxel was set in the first round (the grid is
+/// connected), but a value that is somehow still unset is an error, never an infinity in the
+/// output.
 pub(crate) fn finish(
     volume: &Volume,
     params: &SdfParams,
-    u: &[f32],
+    mut u: Vec<f32>,
     rounds: Rounds,
 ) -> Result<SdfResult> {
     let [nx, ny, nz] = volume.dims();
     let values = volume.values();
-    let mut out = Vec::with_capacity(values.len());
+    // Row by row to the front: a voxel's unpadded index is below its padded one, so a row
+    // moves onto distances already read.
     for k in 0..nz {
         for j in 0..ny {
-            let start = 1 + (nx + 2) * ((j + 1) + (ny + 2) * (k + 1));
-            let row = &values[(j + ny * k) * nx..][..nx];
-            out.extend(u[start..start + nx].iter().zip(row).map(|(&d, &v)| {
+            let to = (j + ny * k) * nx;
+            let from = 1 + (nx + 2) * ((j + 1) + (ny + 2) * (k + 1));
+            u.copy_within(from..from + nx, to);
+            for (d, &v) in u[to..to + nx].iter_mut().zip(&values[to..to + nx]) {
                 if v > params.iso {
-                    -d
-                } else {
-                    d
+                    *d = -*d;
                 }
-            }));
+            }
         }
     }
-    if let Some(index) = out.iter().position(|d| !d.is_finite()) {
+    u.truncate(values.len());
+    u.shrink_to_fit();
+    if let Some(index) = u.iter().position(|d| !d.is_finite()) {
         return Err(Error::Volume(format!(
             "the signed distance at voxel {index} did not converge to a finite value"
         )));
     }
     Ok(SdfResult {
-        sdf: Volume::new(volume.dims(), volume.spacing(), volume.origin(), out)?,
+        sdf: Volume::new(volume.dims(), volume.spacing(), volume.origin(), u)?,
         iterations: rounds.iterations,
         max_change: rounds.max_change,
         converged: rounds.converged,
@@ -236,12 +249,13 @@ pub(crate) fn finish(
 pub(crate) struct Grid {
     dims: [usize; 3],
     pub u: Vec<f32>,
-    pub fixed: Vec<bool>,
+    pub fixed: Bits,
     /// Per padded row (j + 1) + (ny + 2) (k + 1): 1 + the last round a voxel of it decreased
     /// in (0: never; saturating). A row none of whose own and four neighbouring rows changed
     /// in this round or the last cannot change now: its update reads only those rows, and
     /// their values are what it last saw. Later rounds, which mostly confirm, skip such rows.
-    changed: Vec<u8>,
+    /// Atomic because the rows of a wavefront stamp their own while reading their neighbours'.
+    changed: Vec<AtomicU8>,
 }
 
 impl Grid {
@@ -250,8 +264,10 @@ impl Grid {
         Self {
             dims,
             u: vec![f32::INFINITY; len],
-            fixed: vec![false; len],
-            changed: vec![0; (dims[1] + 2) * (dims[2] + 2)],
+            fixed: Bits::new(len),
+            changed: (0..(dims[1] + 2) * (dims[2] + 2))
+                .map(|_| AtomicU8::new(0))
+                .collect(),
         }
     }
 
@@ -259,6 +275,28 @@ impl Grid {
     fn index(&self, i: usize, j: usize, k: usize) -> usize {
         let [nx, ny, _] = self.dims;
         (i + 1) + (nx + 2) * ((j + 1) + (ny + 2) * (k + 1))
+    }
+}
+
+/// One bit per voxel: which are fixed (a byte each would be a quarter of the distances again).
+pub(crate) struct Bits {
+    words: Vec<u64>,
+}
+
+impl Bits {
+    fn new(len: usize) -> Self {
+        Self {
+            words: vec![0; len.div_ceil(64)],
+        }
+    }
+
+    fn set(&mut self, index: usize) {
+        self.words[index / 64] |= 1 << (index % 64);
+    }
+
+    #[inline]
+    pub fn get(&self, index: usize) -> bool {
+        self.words[index / 64] >> (index % 64) & 1 == 1
     }
 }
 
@@ -316,7 +354,7 @@ fn initialize(volume: &Volume, iso: f32, h: [f32; 3], grid: &mut Grid) -> usize 
                     };
                     let g = grid.index(i, j, k);
                     grid.u[g] = d;
-                    grid.fixed[g] = true;
+                    grid.fixed.set(g);
                     count += 1;
                 }
             }
