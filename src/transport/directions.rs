@@ -43,15 +43,18 @@ pub struct Ordinate {
 
 impl Ordinate {
     /// The bilinear weights of the four upwind lattice points, in the order the sweeps read
-    /// them: (0, 0), (1, 0), (0, 1), (1, 1) from the floor.
+    /// them: (0, 0), (1, 0), (0, 1), (1, 1) from the floor. The last is what the first three
+    /// leave of 1 (within an ulp of fb fc), so that the four added in that order make exactly
+    /// 1 in f32: an upwind plane of T = 1 then gives exactly 1, and empty space stays at
+    /// exactly 1 however many planes it spans, which lets the sweeps skip it
+    /// ([`super::cpu`]).
     pub fn upwind_weights(&self) -> [f32; 4] {
         let [fb, fc] = self.fraction;
-        [
-            (1.0 - fb) * (1.0 - fc),
-            fb * (1.0 - fc),
-            (1.0 - fb) * fc,
-            fb * fc,
-        ]
+        let first = [(1.0 - fb) * (1.0 - fc), fb * (1.0 - fc), (1.0 - fb) * fc];
+        // first[0..3] sum to at most 1 (each rounding is monotonic and 1 is exact), and
+        // s + fl(1 - s) rounds to 1 for any such s (its error is within half an ulp of 1).
+        let last = 1.0 - ((first[0] + first[1]) + first[2]);
+        [first[0], first[1], first[2], last]
     }
 
     /// The first of the four upwind points, relative to the voxel, in a plane padded by one
@@ -252,6 +255,45 @@ mod tests {
         let covered: usize = set.groups().iter().map(|g| g.members.len()).sum();
         assert_eq!(covered, 128);
         assert_eq!(set.groups().len(), 6);
+    }
+
+    #[test]
+    fn upwind_weights_make_exactly_one_in_the_sweeps_order() {
+        let mut fractions: Vec<[f32; 2]> = Ordinates::new(1024, Vec3::new(1.0, 0.7, 1.3))
+            .unwrap()
+            .all()
+            .iter()
+            .map(|o| o.fraction)
+            .collect();
+        fractions.extend([
+            [0.0, 0.0],
+            [1.0, 1.0],
+            [0.0, 1.0],
+            [1e-7, 0.9999999],
+            [0.3, 0.7],
+        ]);
+        for fraction in fractions {
+            let o = Ordinate {
+                towards: Vec3::Z,
+                weight: 1.0,
+                axis: 2,
+                sign: 1,
+                floor: [0, 0],
+                fraction,
+                length: 1.0,
+            };
+            let w = o.upwind_weights();
+            assert_eq!(((w[0] + w[1]) + w[2]) + w[3], 1.0, "{fraction:?}: {w:?}");
+            let [fb, fc] = fraction;
+            assert!(
+                (w[3] - fb * fc).abs() <= 2.0 * f32::EPSILON,
+                "{fraction:?}: {w:?}"
+            );
+            assert!(
+                w.iter().all(|x| (0.0..=1.0).contains(x)),
+                "{fraction:?}: {w:?}"
+            );
+        }
     }
 
     #[test]
