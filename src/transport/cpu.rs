@@ -3,12 +3,14 @@
 //! contiguous padded planes once per sweep order, so the directions' loops run over
 //! contiguous rows whatever the axis.
 //!
-//! Empty space is skipped by rows: a row whose extinction is 0 and whose upwind rows hold
-//! extinction 0 and T = 1 gets T = 1 without its interpolations and exp. That is exactly what
-//! the loop would compute (exp(-0) = 1, and the upwind weights make exactly 1:
+//! Empty space is skipped: each padded row of a plane keeps the span of its values that may
+//! differ from the padding's (T = 1, sigma = 0), and a direction computes a row only over the
+//! voxels whose extinction or upwind points fall in those spans; the others get T = 1
+//! without their interpolations and exp. That is exactly what the loop would compute
+//! (exp(-0) = 1, and the upwind weights make exactly 1:
 //! [`super::directions::Ordinate::upwind_weights`]), so the result is the same bytes as
-//! sweeping every voxel; on a scan that is mostly air it is most of the work (the air around
-//! the matter, and the air on the light's side of it, for each direction).
+//! sweeping every voxel; on a scan that is mostly air it skips the air around the matter and
+//! on the light's side of it, for each direction.
 
 use super::directions::{Ordinate, Ordinates};
 use super::{total_planes, Planes};
@@ -66,24 +68,70 @@ pub fn visibility(
     Volume::new(dims, extinction.spacing(), extinction.origin(), sum)
 }
 
-/// A padded plane of T or of extinction, and which of its padded rows are empty space: every
-/// value of the row, padding included, at the padding's (T = 1, sigma = 0). The padding rows
-/// always are.
+/// A padded plane of T or of extinction, and per padded row the span of its values that may
+/// differ from the padding's (T = 1, sigma = 0): outside it, every value is the padding's. The
+/// padding rows' spans are empty.
 struct Plane {
     values: Vec<f32>,
-    empty_rows: Vec<bool>,
+    spans: Vec<Span>,
 }
 
 impl Plane {
     fn new(planes: &Planes, padding: f32) -> Self {
         Self {
             values: vec![padding; planes.padded_len()],
-            empty_rows: vec![true; planes.lateral[1] + 2],
+            spans: vec![Span::EMPTY; planes.lateral[1] + 2],
         }
     }
 }
 
-/// Plane `k`'s extinction into the padded `sigma` (and its empty rows) and its sum so far into
+/// A span [start, end) of a padded row's indices; empty when start >= end.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Span {
+    start: usize,
+    end: usize,
+}
+
+impl Span {
+    const EMPTY: Span = Span {
+        start: usize::MAX,
+        end: 0,
+    };
+
+    fn is_empty(self) -> bool {
+        self.start >= self.end
+    }
+
+    /// The smallest span holding both.
+    fn hull(self, other: Span) -> Span {
+        Span {
+            start: self.start.min(other.start),
+            end: self.end.max(other.end),
+        }
+    }
+
+    /// The span of `values` (a row's) where `differs` holds, offset by `first`.
+    fn of(values: &[f32], first: usize, differs: impl Fn(f32) -> bool) -> Span {
+        match values.iter().position(|&v| differs(v)) {
+            None => Span::EMPTY,
+            Some(lo) => {
+                let hi = values.iter().rposition(|&v| differs(v)).unwrap_or(lo);
+                Span {
+                    start: first + lo,
+                    end: first + hi + 1,
+                }
+            }
+        }
+    }
+
+    /// The span clamped to [lo, hi), as a range (empty when the span is).
+    fn within(self, lo: usize, hi: usize) -> std::ops::Range<usize> {
+        let start = self.start.clamp(lo, hi);
+        start..self.end.clamp(start, hi)
+    }
+}
+
+/// Plane `k`'s extinction into the padded `sigma` (and its spans) and its sum so far into
 /// `lit`.
 fn gather(
     planes: &Planes,
@@ -98,14 +146,12 @@ fn gather(
     let row = planes.padded_row();
     for c in 0..nc {
         let base = k * sa + c * sc;
-        let mut empty = true;
+        let padded = row * (c + 1);
         for b in 0..nb {
-            let s = values[base + b * sb];
-            sigma.values[(b + 1) + row * (c + 1)] = s;
-            empty &= s == 0.0;
+            sigma.values[padded + b + 1] = values[base + b * sb];
             lit[b + nb * c] = sum[base + b * sb];
         }
-        sigma.empty_rows[c + 1] = empty;
+        sigma.spans[c + 1] = Span::of(&sigma.values[padded + 1..padded + 1 + nb], 1, |s| s != 0.0);
     }
 }
 
@@ -122,7 +168,7 @@ fn scatter(planes: &Planes, k: usize, lit: &[f32], sum: &mut [f32]) {
 }
 
 /// One direction across one plane: T at each voxel from the upwind plane, into `swept`, and
-/// its weighted share added to `lit`; rows in empty space are set to 1 without the loop.
+/// its weighted share added to `lit`; voxels in empty space get T = 1 without the loop.
 fn sweep_plane(
     planes: &Planes,
     o: &Ordinate,
@@ -137,32 +183,38 @@ fn sweep_plane(
     let weights = o.upwind_weights();
     let shift = o.upwind_shift(row);
     let half_length = 0.5 * o.length;
-    // The four upwind points of a voxel in padded row r lie on rows r + floor and the next.
-    let upwind_empty = |r: usize| {
+    // The voxels of padded row r that need the loop: those of nonzero extinction, and those
+    // whose upwind points (x + floor and the next, on rows r + floor and the next) fall in a
+    // span of the upwind planes.
+    let back = (-o.floor[0]) as usize;
+    let needed = |r: usize| {
         let first = r.wrapping_add_signed(o.floor[1] as isize);
-        (first..first + 2).all(|u| upwind.empty_rows[u] && upwind_sigma.empty_rows[u])
+        let upwind_span = (first..first + 2)
+            .map(|u| upwind.spans[u].hull(upwind_sigma.spans[u]))
+            .fold(Span::EMPTY, Span::hull);
+        // Padding is never in a span, so an upwind span starts at 1 or later.
+        let reached = match upwind_span.is_empty() {
+            true => Span::EMPTY,
+            false => Span {
+                start: upwind_span.start - 1 + back,
+                end: upwind_span.end + back,
+            },
+        };
+        sigma.spans[r].hull(reached).within(1, nb + 1)
     };
     swept.values[row..row * (nc + 1)]
         .par_chunks_mut(row)
-        .zip(swept.empty_rows[1..=nc].par_iter_mut())
+        .zip(swept.spans[1..=nc].par_iter_mut())
         .zip(lit.par_chunks_mut(nb))
         .enumerate()
-        .for_each(|(c, ((swept_row, empty), lit_row))| {
-            if sigma.empty_rows[c + 1] && upwind_empty(c + 1) {
-                // The row already holds 1 where it was empty when last swept.
-                if !*empty {
-                    swept_row[1..=nb].fill(1.0);
-                    *empty = true;
-                }
-                for l in lit_row.iter_mut() {
-                    *l += o.weight;
-                }
-                return;
-            }
-            let start = row * (c + 1) + 1;
-            let mut all_lit = true;
-            for b in 0..nb {
-                let at = start + b;
+        .for_each(|(c, ((swept_row, span), lit_row))| {
+            // Back to the padding where the row last differed from it, then the loop where
+            // it is needed.
+            swept_row[span.within(1, nb + 1)].fill(1.0);
+            let compute = needed(c + 1);
+            let start = row * (c + 1);
+            for x in compute.clone() {
+                let at = start + x;
                 let p = (at as isize + shift) as usize;
                 let bilinear = |f: &[f32]| {
                     weights[0] * f[p]
@@ -171,13 +223,12 @@ fn sweep_plane(
                         + weights[3] * f[p + row + 1]
                 };
                 let depth = half_length * (sigma.values[at] + bilinear(&upwind_sigma.values));
-                let t = bilinear(&upwind.values) * (-depth).exp();
-                swept_row[b + 1] = t;
-                lit_row[b] += o.weight * t;
-                all_lit &= t == 1.0;
+                swept_row[x] = bilinear(&upwind.values) * (-depth).exp();
             }
-            // T = 1 with sigma = 0 is empty space for the next plane: its light is untouched.
-            *empty = all_lit;
+            for (x, l) in lit_row.iter_mut().enumerate().map(|(b, l)| (b + 1, l)) {
+                *l += o.weight * swept_row[x];
+            }
+            *span = Span::of(&swept_row[compute.clone()], compute.start, |t| t != 1.0);
         });
 }
 
