@@ -28,6 +28,7 @@ pub mod registry;
 pub mod render;
 pub mod scene;
 pub mod series;
+pub mod span;
 pub mod transport;
 pub mod volume;
 

@@ -16,6 +16,7 @@ use super::directions::{Ordinate, Ordinates};
 use super::{total_planes, Planes};
 use crate::error::{Error, Result};
 use crate::progress::Progress;
+use crate::span::Span;
 use crate::volume::Volume;
 use rayon::prelude::*;
 
@@ -82,52 +83,6 @@ impl Plane {
             values: vec![padding; planes.padded_len()],
             spans: vec![Span::EMPTY; planes.lateral[1] + 2],
         }
-    }
-}
-
-/// A span [start, end) of a padded row's indices; empty when start >= end.
-#[derive(Clone, Copy, Debug, PartialEq)]
-struct Span {
-    start: usize,
-    end: usize,
-}
-
-impl Span {
-    const EMPTY: Span = Span {
-        start: usize::MAX,
-        end: 0,
-    };
-
-    fn is_empty(self) -> bool {
-        self.start >= self.end
-    }
-
-    /// The smallest span holding both.
-    fn hull(self, other: Span) -> Span {
-        Span {
-            start: self.start.min(other.start),
-            end: self.end.max(other.end),
-        }
-    }
-
-    /// The span of `values` (a row's) where `differs` holds, offset by `first`.
-    fn of(values: &[f32], first: usize, differs: impl Fn(f32) -> bool) -> Span {
-        match values.iter().position(|&v| differs(v)) {
-            None => Span::EMPTY,
-            Some(lo) => {
-                let hi = values.iter().rposition(|&v| differs(v)).unwrap_or(lo);
-                Span {
-                    start: first + lo,
-                    end: first + hi + 1,
-                }
-            }
-        }
-    }
-
-    /// The span clamped to [lo, hi), as a range (empty when the span is).
-    fn within(self, lo: usize, hi: usize) -> std::ops::Range<usize> {
-        let start = self.start.clamp(lo, hi);
-        start..self.end.clamp(start, hi)
     }
 }
 

@@ -99,8 +99,15 @@ impl Stencil {
             }
         }
         let total: f64 = shares.iter().sum();
+        let mut weights = shares.map(|c| (c / total) as f32);
+        // The first weight is what the others leave of 1 in f32, added in the order the
+        // sweeps add them (steps 1..7, then step 0): empty space under a sky of 1 then stays
+        // at exactly 1, which lets the CPU sweep skip it (`cpu`). s + fl(1 - s) rounds to 1
+        // for any s in [0, 1], and this moves the weight by at most an ulp.
+        let others = weights[1..].iter().fold(0.0f32, |sum, w| sum + w);
+        weights[0] = 1.0 - others;
         Ok(Self {
-            weights: shares.map(|c| (c / total) as f32),
+            weights,
             lengths: steps.map(|s| s.length() as f32),
         })
     }
@@ -143,6 +150,19 @@ mod tests {
     fn cubic_weights_share_the_octant_by_symmetry() {
         let s = Stencil::new(Vec3::ONE).unwrap();
         assert!((s.weights.iter().sum::<f32>() - 1.0).abs() < 1e-6);
+        // Exactly 1 in the sweeps' order, for any spacing.
+        for spacing in [
+            Vec3::ONE,
+            Vec3::new(0.3, 1.0, 2.5),
+            Vec3::new(1.0, 1.0, 0.01),
+        ] {
+            let w = Stencil::new(spacing).unwrap().weights;
+            assert_eq!(
+                w[1..].iter().fold(0.0f32, |a, b| a + b) + w[0],
+                1.0,
+                "{w:?}"
+            );
+        }
         // Faces, edges and the corner each take equal shares (Monte Carlo: 0.0915, 0.148, 0.281).
         for (group, want) in [(0..3, 0.0915), (3..6, 0.148), (6..7, 0.2815)] {
             for w in &s.weights[group] {
