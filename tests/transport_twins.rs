@@ -4,8 +4,11 @@
 //!
 //! Tolerance: per voxel, |V_gpu - V_cpu| <= 1e-4 (V is in [0, 1]). Why it holds on any
 //! conforming GPU: the twins read the same f32 extinction at the voxel centres (storage
-//! buffers, no texture filtering), interpolate with the same four weights in the same order,
-//! and add each voxel's directions in the same order; they differ only by the rounding of exp
+//! buffers, no texture filtering), interpolate with the same four weights in the same order
+//! (but for the fourth: the CPU's is 1 less the other three, so that they make exactly 1 and
+//! empty space can be skipped, within two ULP of the GPU's fb fc, which shifts T by at most
+//! 2^-23 per plane, inside the budget below), and add each voxel's directions in the same
+//! order; they differ only by the rounding of exp
 //! (WGSL allows 3 + 2|x| ULP, an absolute error within 3 * 2^-23 of T since
 //! (3 + 2x) e^-x <= 3; Rust's f32 exp is within 1 ULP) and by fused multiply-adds the GPU
 //! compiler may form. Each T is a convex combination of upwind T's times exp, so a difference
