@@ -195,9 +195,12 @@ impl Scene {
         })
     }
 
-    /// Loads (or generates) the volume and places it in the world, as [`Scene::load`] does.
+    /// Loads (or generates) the volume and places it in the world, as [`Scene::load`] does,
+    /// for a command that renders no image (an import, an export, a bake): its memory check
+    /// counts the method's volumes but not the image's layers.
     pub fn load_volume(&self) -> Result<Volume> {
-        Ok(self.load()?.volume)
+        let holder = format!("method = \"{}\"", self.method.spec().name);
+        Ok(self.load_holding(self.peak_volumes(), 0, &holder)?.volume)
     }
 
     /// [`Scene::load_volume`] for a command other than the scene's render, which holds
