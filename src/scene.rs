@@ -199,8 +199,9 @@ impl Scene {
     /// for a command that renders no image (an import, an export, a bake): its memory check
     /// counts the method's volumes but not the image's layers.
     pub fn load_volume(&self) -> Result<Volume> {
-        let holder = format!("method = \"{}\"", self.method.spec().name);
-        Ok(self.load_holding(self.peak_volumes(), 0, &holder)?.volume)
+        Ok(self
+            .load_holding(self.peak_volumes(), 0, &self.holder())?
+            .volume)
     }
 
     /// [`Scene::load_volume`] for a command other than the scene's render, which holds
@@ -215,9 +216,14 @@ impl Scene {
     /// show (see [`crate::framing`]). A volume whose render would not fit in memory is
     /// refused before its voxels are read ([`Scene::peak_volumes`]).
     pub fn load(&self) -> Result<Loaded> {
-        let holder = format!("method = \"{}\"", self.method.spec().name);
+        let holder = self.holder();
         let pixels = u64::from(self.camera.width) * u64::from(self.camera.height);
         self.load_holding(self.peak_volumes(), pixels * IMAGE_BYTES_PER_PIXEL, &holder)
+    }
+
+    /// What holds the peak of the scene's own loads, as a refusal names it.
+    fn holder(&self) -> String {
+        format!("method = \"{}\"", self.method.spec().name)
     }
 
     /// [`Scene::load`] for a command that holds `volumes` dense f32 volumes and `fixed_bytes`

@@ -233,9 +233,9 @@ impl OctantSlices {
         let nx = shape.nx;
         let w: [f32; 6] = std::array::from_fn(|n| stencil.weights[n + 1]);
         // What a voxel of empty space under a sky of 1 gets from the six steps that leave its
-        // row (the loop's own sum of weight x 1 x 1 x 1).
-        let free_off_row = w.iter().fold(0.0f32, |sum, &w| sum + w * 1.0 * 1.0 * 1.0);
-        let free_along = stencil.weights[0] * 1.0 * 1.0;
+        // row and from the step along it (the loop's own sums, every factor but w being 1).
+        let free_off_row = w.iter().fold(0.0f32, |sum, &w| sum + w);
+        let free_along = stencil.weights[0];
         for j in sweep_order(shape.ny, signs[1]) {
             let start = shape.row(j);
             let r = j + 1;
